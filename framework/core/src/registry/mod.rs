@@ -1,0 +1,110 @@
+//! The explicit plugin registry: a typed table per slot, filled by `register_all` functions (built-ins)
+//! and by the dynamic loader (cdylib plugins), and queried by name when a config is instantiated.
+
+mod params;
+mod slot;
+mod table;
+
+pub use params::{ParamError, Params};
+pub use slot::Slot;
+pub use table::{PluginEntry, PluginInfo, SlotTable};
+
+use std::path::PathBuf;
+
+use crate::slots::{
+    Backend, CoarseRegistration, Descriptor, FineRegistration, Odometry, Source, Transport, Verifier,
+};
+use crate::{PluginError, RobotId};
+
+/// What every plugin constructor is told about where it runs.
+#[derive(Clone, Debug)]
+pub struct PluginContext {
+    /// The robot this plugin instance serves.
+    pub robot: RobotId,
+    /// Number of robots in the fleet.
+    pub fleet_size: u32,
+    /// Threads the plugin may use (rayon pools are sized from it); at least 1.
+    pub threads: usize,
+    /// Seed for anything random, so lockstep runs are reproducible.
+    pub seed: u64,
+    /// Folder for the run's outputs, when the plugin writes any.
+    pub output_dir: Option<PathBuf>,
+}
+
+impl Default for PluginContext {
+    fn default() -> Self {
+        Self { robot: RobotId(0), fleet_size: 1, threads: 1, seed: 0, output_dir: None }
+    }
+}
+
+/// Every plugin the host knows, one typed table per slot.
+pub struct Registry {
+    pub source: SlotTable<dyn Source>,
+    pub odometry: SlotTable<dyn Odometry>,
+    pub descriptor: SlotTable<dyn Descriptor>,
+    pub coarse: SlotTable<dyn CoarseRegistration>,
+    pub fine: SlotTable<dyn FineRegistration>,
+    pub verifier: SlotTable<dyn Verifier>,
+    pub backend: SlotTable<dyn Backend>,
+    pub transport: SlotTable<dyn Transport>,
+}
+
+impl Default for Registry {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Registry {
+    /// An empty registry.
+    pub fn new() -> Self {
+        Self {
+            source: SlotTable::new(Slot::Source),
+            odometry: SlotTable::new(Slot::Odometry),
+            descriptor: SlotTable::new(Slot::Descriptor),
+            coarse: SlotTable::new(Slot::Coarse),
+            fine: SlotTable::new(Slot::Fine),
+            verifier: SlotTable::new(Slot::Verifier),
+            backend: SlotTable::new(Slot::Backend),
+            transport: SlotTable::new(Slot::Transport),
+        }
+    }
+
+    /// The names registered for a slot, sorted.
+    pub fn names(&self, slot: Slot) -> Vec<String> {
+        self.infos(slot).into_iter().map(|info| info.name).collect()
+    }
+
+    /// Name, summary and default parameters of every plugin of a slot, sorted by name.
+    pub fn infos(&self, slot: Slot) -> Vec<PluginInfo> {
+        match slot {
+            Slot::Source => self.source.infos(),
+            Slot::Odometry => self.odometry.infos(),
+            Slot::Descriptor => self.descriptor.infos(),
+            Slot::Coarse => self.coarse.infos(),
+            Slot::Fine => self.fine.infos(),
+            Slot::Verifier => self.verifier.infos(),
+            Slot::Backend => self.backend.infos(),
+            Slot::Transport => self.transport.infos(),
+        }
+    }
+
+    /// Every plugin of every slot, in slot order.
+    pub fn catalogue(&self) -> Vec<PluginInfo> {
+        Slot::ALL.iter().flat_map(|&slot| self.infos(slot)).collect()
+    }
+
+    /// Checks `params` against the named plugin's parameter type without constructing it.
+    pub fn validate(&self, slot: Slot, name: &str, params: &Params) -> Result<(), PluginError> {
+        match slot {
+            Slot::Source => self.source.validate(name, params),
+            Slot::Odometry => self.odometry.validate(name, params),
+            Slot::Descriptor => self.descriptor.validate(name, params),
+            Slot::Coarse => self.coarse.validate(name, params),
+            Slot::Fine => self.fine.validate(name, params),
+            Slot::Verifier => self.verifier.validate(name, params),
+            Slot::Backend => self.backend.validate(name, params),
+            Slot::Transport => self.transport.validate(name, params),
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! Back-end slots: loop verification (the verifier) and pose-graph optimisation (the back-end).
+
+use std::time::Duration;
+
+use crate::{CloudView, Information, KeyframeId, LoopId, PluginResult, Pose};
+
+/// A relative pose with its uncertainty.
+#[derive(Clone, Debug)]
+pub struct RelativePose {
+    pub target_from_source: Pose,
+    /// 6x6 covariance, translation first.
+    pub covariance: Information,
+}
+
+/// Odometry between two keyframes of one robot.
+#[derive(Clone, Debug)]
+pub struct OdometryMeasurement {
+    /// The earlier keyframe.
+    pub target: KeyframeId,
+    /// The later keyframe.
+    pub source: KeyframeId,
+    pub target_from_source: Pose,
+    pub information: Information,
+}
+
+/// A loop closure between two keyframes (same robot: intra-robot; different robots: inter-robot).
+#[derive(Clone, Debug)]
+pub struct LoopClosure {
+    pub id: LoopId,
+    pub target: KeyframeId,
+    pub source: KeyframeId,
+    pub target_from_source: Pose,
+    pub information: Information,
+}
+
+impl LoopClosure {
+    /// True when the two keyframes belong to different robots.
+    pub fn is_inter_robot(&self) -> bool {
+        self.target.robot != self.source.robot
+    }
+}
+
+/// A loop closure submitted for verification, with the two clouds it aligns (sensor frames).
+#[derive(Clone, Debug)]
+pub struct LoopCandidate<'a> {
+    pub closure: LoopClosure,
+    pub target_cloud: CloudView<'a>,
+    pub source_cloud: CloudView<'a>,
+}
+
+/// The verifier's decision after one submission. PCM may retract loops it accepted earlier when the
+/// maximum consistent set changes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Verdict {
+    pub accepted: Vec<LoopId>,
+    pub retracted: Vec<LoopId>,
+    /// Rejected loops with the reason, for logs and evaluation.
+    pub rejected: Vec<(LoopId, String)>,
+}
+
+/// Read-only access to the pose graph, for verifiers and the runtime.
+pub trait GraphView {
+    /// The current estimate of a keyframe's pose in the optimiser's world frame.
+    fn pose(&self, id: KeyframeId) -> Option<Pose>;
+
+    /// The odometry-only relative pose between two keyframes of one robot, composed along the chain,
+    /// with its covariance; `None` if either keyframe is unknown or they belong to different robots.
+    fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose>;
+
+    /// Every keyframe in the graph.
+    fn keyframes(&self) -> Vec<KeyframeId>;
+
+    /// Every loop closure currently in the graph.
+    fn loops(&self) -> Vec<LoopClosure>;
+}
+
+/// Decides which loop closures to trust.
+pub trait Verifier: Send {
+    fn submit(&mut self, candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> PluginResult<Verdict>;
+}
+
+/// Limits on one optimisation call.
+#[derive(Clone, Copy, Debug)]
+pub struct OptimizeBudget {
+    pub max_iterations: usize,
+    pub max_duration: Duration,
+}
+
+impl Default for OptimizeBudget {
+    fn default() -> Self {
+        Self { max_iterations: 100, max_duration: Duration::from_secs(10) }
+    }
+}
+
+/// What one optimisation call did.
+#[derive(Clone, Debug, Default)]
+pub struct OptimizeReport {
+    pub iterations: usize,
+    pub initial_cost: f64,
+    pub final_cost: f64,
+    pub converged: bool,
+}
+
+/// Pose-graph optimisation over a robot's keyframes and the peer keyframes its loops link to.
+pub trait Backend: Send {
+    /// Adds a keyframe with an initial pose guess; adding a known keyframe is an error.
+    fn add_keyframe(&mut self, id: KeyframeId, world_from_sensor: Pose) -> PluginResult<()>;
+
+    /// Adds an odometry edge between two known keyframes of one robot.
+    fn add_odometry(&mut self, measurement: OdometryMeasurement) -> PluginResult<()>;
+
+    /// Adds an accepted loop closure.
+    fn add_loop(&mut self, closure: LoopClosure) -> PluginResult<()>;
+
+    /// Removes a loop closure that was retracted; unknown ids are an error.
+    fn remove_loop(&mut self, id: LoopId) -> PluginResult<()>;
+
+    /// Optimises within the budget.
+    fn optimize(&mut self, budget: OptimizeBudget) -> PluginResult<OptimizeReport>;
+
+    /// Read-only view of the graph.
+    fn graph(&self) -> &dyn GraphView;
+}

@@ -1,0 +1,45 @@
+//! Transport slot: moves opaque, already-encoded protocol messages between robots.
+//!
+//! The protocol (envelopes, size limits, message kinds) lives in the runtime; a transport only moves
+//! bytes, is polled (no hidden threads) and never blocks past the deadline it is given.
+
+use std::time::Duration;
+
+use crate::{PluginResult, RobotId};
+
+/// Where a message goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Destination {
+    Robot(RobotId),
+    AllPeers,
+}
+
+/// A message received from a peer.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Datagram {
+    pub from: RobotId,
+    pub payload: Vec<u8>,
+}
+
+/// What the transport knows about a peer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PeerInfo {
+    pub robot: RobotId,
+    /// Time since anything was last heard from the peer, if ever.
+    pub silent_for: Option<Duration>,
+}
+
+/// Moves bytes between robots.
+pub trait Transport: Send {
+    /// The robot this transport endpoint belongs to.
+    fn local_robot(&self) -> RobotId;
+
+    /// Queues a message; an unreachable peer is not an error (links come and go), an oversized message is.
+    fn send(&mut self, destination: Destination, payload: &[u8]) -> PluginResult<()>;
+
+    /// Returns the messages that arrived, waiting at most `timeout` for the first one.
+    fn poll(&mut self, timeout: Duration) -> PluginResult<Vec<Datagram>>;
+
+    /// The peers currently known.
+    fn peers(&self) -> Vec<PeerInfo>;
+}
