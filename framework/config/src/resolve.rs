@@ -1,0 +1,199 @@
+//! From the merged layers to a validated configuration: plugin names checked against the registry,
+//! every plugin table parsed by its plugin, and errors traced back to the layer that caused them.
+
+use std::collections::BTreeMap;
+
+use figment::error::Kind;
+use figment::{Figment, Profile, Source};
+use skid_core::{Params, Registry, Slot};
+
+use crate::schema::{MAX_ROBOTS, NONE_PLUGIN, RawConfig, RawSlot};
+use crate::{ConfigError, DeploySection, RunSection};
+
+/// One slot after validation: the selected plugin and its complete parameters (defaults filled in).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResolvedSlot {
+    pub plugin: String,
+    pub params: Params,
+}
+
+impl ResolvedSlot {
+    /// True when the slot is left empty (`plugin = "none"`).
+    pub fn is_none(&self) -> bool {
+        self.plugin == NONE_PLUGIN
+    }
+}
+
+/// A validated configuration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResolvedConfig {
+    pub run: RunSection,
+    pub deploy: DeploySection,
+    pub slots: BTreeMap<Slot, ResolvedSlot>,
+}
+
+impl ResolvedConfig {
+    /// The resolved table of a slot (every slot is present after resolution).
+    pub fn slot(&self, slot: Slot) -> &ResolvedSlot {
+        static NONE: std::sync::OnceLock<ResolvedSlot> = std::sync::OnceLock::new();
+        self.slots.get(&slot).unwrap_or_else(|| {
+            NONE.get_or_init(|| ResolvedSlot { plugin: NONE_PLUGIN.to_owned(), params: Params::default() })
+        })
+    }
+
+    /// The effective configuration as TOML: run, deploy, and each slot with only its selected plugin's
+    /// complete parameters.
+    pub fn to_toml_string(&self) -> String {
+        let mut root = toml::Table::new();
+        if let Ok(toml::Value::Table(run)) = toml::Value::try_from(&self.run) {
+            root.insert("run".to_owned(), toml::Value::Table(run));
+        }
+        if let Ok(toml::Value::Table(deploy)) = toml::Value::try_from(&self.deploy) {
+            root.insert("deploy".to_owned(), toml::Value::Table(deploy));
+        }
+        for (slot, resolved) in &self.slots {
+            let mut table = toml::Table::new();
+            table.insert("plugin".to_owned(), toml::Value::String(resolved.plugin.clone()));
+            if !resolved.is_none() {
+                table.insert(resolved.plugin.clone(), toml::Value::Table(resolved.params.table().clone()));
+            }
+            root.insert(slot.key().to_owned(), toml::Value::Table(table));
+        }
+        toml::to_string_pretty(&root).unwrap_or_default()
+    }
+}
+
+/// Validates the merged configuration against the registry.
+pub(crate) fn resolve(figment: &Figment, raw: RawConfig, registry: &Registry) -> Result<ResolvedConfig, ConfigError> {
+    if !(1..=MAX_ROBOTS).contains(&raw.run.robots) {
+        return Err(invalid(figment, "run.robots", format!("{} robots; expected 1 to {MAX_ROBOTS}", raw.run.robots)));
+    }
+    let mut slots = BTreeMap::new();
+    for slot in Slot::ALL {
+        let resolved = match raw.slot(slot) {
+            Some(table) => resolve_slot(figment, slot, table, registry)?,
+            None if slot == Slot::Source => {
+                return Err(invalid(figment, "source", "missing: every configuration needs a [source] table".into()));
+            }
+            None => ResolvedSlot { plugin: NONE_PLUGIN.to_owned(), params: Params::default() },
+        };
+        slots.insert(slot, resolved);
+    }
+    Ok(ResolvedConfig { run: raw.run, deploy: raw.deploy, slots })
+}
+
+fn resolve_slot(figment: &Figment, slot: Slot, table: &RawSlot, registry: &Registry) -> Result<ResolvedSlot, ConfigError> {
+    let known = registry.infos(slot);
+    let known_names = || known.iter().map(|info| info.name.clone()).collect::<Vec<_>>().join(", ");
+    let plugin_key = format!("{slot}.plugin");
+    let selected = table.plugin.as_str();
+    let none_allowed = slot != Slot::Source;
+    if selected == NONE_PLUGIN && !none_allowed {
+        return Err(invalid(figment, &plugin_key, format!("the source slot cannot be `none`; known: {}", known_names())));
+    }
+    if selected != NONE_PLUGIN && !known.iter().any(|info| info.name == selected) {
+        let message = format!("unknown {slot} plugin `{selected}`; known {slot} plugins: {}{}", known_names(),
+            if none_allowed { ", none" } else { "" });
+        return Err(invalid(figment, &plugin_key, message));
+    }
+    // Every parameter table must belong to a plugin of this slot and parse as that plugin's parameters,
+    // so a typo in a plugin that is not selected today is still caught.
+    let mut selected_params = None;
+    for (name, value) in &table.tables {
+        let key = format!("{slot}.{name}");
+        let Some(info) = known.iter().find(|info| &info.name == name) else {
+            let message = format!("`{name}` is not a {slot} plugin; expected `plugin` or a table named after one of: {}", known_names());
+            return Err(invalid(figment, &key, message));
+        };
+        let toml::Value::Table(given) = value else {
+            return Err(invalid(figment, &key, format!("expected a table of {name} parameters, found a {}", value.type_str())));
+        };
+        let params = Params::new(given.clone());
+        registry.validate(slot, name, &params).map_err(|error| match error {
+            skid_core::PluginError::Params(param) => {
+                let full = if param.path.is_empty() { key.clone() } else { format!("{key}.{}", param.path) };
+                invalid(figment, &full, param.message)
+            }
+            other => invalid(figment, &key, other.to_string()),
+        })?;
+        if name == selected {
+            selected_params = Some(merged(info.defaults.table(), given));
+        }
+    }
+    let params = if selected == NONE_PLUGIN {
+        Params::default()
+    } else {
+        selected_params.map(Params::new).unwrap_or_else(|| {
+            known.iter().find(|info| info.name == selected).map(|info| info.defaults.clone()).unwrap_or_default()
+        })
+    };
+    Ok(ResolvedSlot { plugin: selected.to_owned(), params })
+}
+
+/// `given` laid over `defaults`, recursively for nested tables.
+fn merged(defaults: &toml::Table, given: &toml::Table) -> toml::Table {
+    let mut out = defaults.clone();
+    for (key, value) in given {
+        let combined = match (out.get(key), value) {
+            (Some(toml::Value::Table(base)), toml::Value::Table(over)) => toml::Value::Table(merged(base, over)),
+            _ => value.clone(),
+        };
+        out.insert(key.clone(), combined);
+    }
+    out
+}
+
+/// An invalid-value error for `key`, naming the layer that supplied it.
+fn invalid(figment: &Figment, key: &str, message: String) -> ConfigError {
+    ConfigError::Invalid { origin: origin_of(figment, key), key: key.to_owned(), message }
+}
+
+/// Describes the layer that supplied `key` (or its nearest present parent).
+fn origin_of(figment: &Figment, key: &str) -> String {
+    let mut probe = key.to_owned();
+    loop {
+        if let Some(metadata) = figment.find_metadata(&probe) {
+            return describe_metadata(metadata, &probe);
+        }
+        match probe.rfind('.') {
+            Some(dot) => probe.truncate(dot),
+            None => return "configuration".to_owned(),
+        }
+    }
+}
+
+fn describe_metadata(metadata: &figment::Metadata, key: &str) -> String {
+    match &metadata.source {
+        Some(Source::File(path)) => {
+            let shown = std::env::current_dir().ok().and_then(|cwd| path.strip_prefix(cwd).ok().map(|p| p.to_owned()));
+            shown.unwrap_or_else(|| path.clone()).display().to_string()
+        }
+        _ if metadata.name.contains("environment") => {
+            let parts: Vec<&str> = key.split('.').collect();
+            format!("environment variable {}", metadata.interpolate(&Profile::Default, &parts))
+        }
+        _ => metadata.name.to_string(),
+    }
+}
+
+/// Turns figment's error (unknown section, wrong type in `[run]`, …) into one that names the layer.
+pub(crate) fn from_figment(figment: &Figment, error: figment::Error) -> ConfigError {
+    let mut key = error.path.join(".");
+    let message = match &error.kind {
+        Kind::UnknownField(field, expected) => {
+            key = if key.is_empty() { field.clone() } else { format!("{key}.{field}") };
+            format!("unknown key `{field}`; expected one of: {}", expected.join(", "))
+        }
+        Kind::MissingField(field) => {
+            key = if key.is_empty() { field.to_string() } else { format!("{key}.{field}") };
+            format!("missing key `{field}`")
+        }
+        other => other.to_string(),
+    };
+    let origin = if key.is_empty() {
+        error.metadata.as_ref().map(|m| m.name.to_string()).unwrap_or_else(|| "configuration".to_owned())
+    } else {
+        origin_of(figment, &key)
+    };
+    ConfigError::Invalid { origin, key, message }
+}
