@@ -1,0 +1,50 @@
+//! Sources that read recorded data from files: `kitti` (a KITTI odometry sequence folder) and
+//! `cloud_dir` (a folder of PCD or PLY clouds with an optional TUM trajectory).
+//!
+//! Both can turn one long sequence into several robots with `split = true`: robot `i` of `N` reads the
+//! `i`-th of `N` consecutive segments (plus `split_overlap_scans` scans of the previous one), as
+//! multi-robot papers do with KITTI 00 and 08. Relative paths that do not exist from the current folder
+//! are looked up under the data folder (`SKID_DATA_DIR`, default `../shared/data`).
+
+mod cloud_dir;
+mod kitti;
+mod segment;
+
+pub use segment::SplitConfig;
+
+pub use cloud_dir::{CloudDirConfig, CloudDirSource};
+pub use kitti::{KittiConfig, KittiSource};
+
+use skid_core::slots::Source;
+use skid_core::{PluginContext, PluginEntry, PluginError, Registry};
+
+/// Registers `kitti` and `cloud_dir` in the source slot.
+pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
+    registry.source.register(PluginEntry::new(
+        "kitti",
+        "KITTI odometry folder: velodyne/*.bin, times.txt, poses.txt + calib.txt (ground truth in the LiDAR frame)",
+        |config: KittiConfig, context: &PluginContext| Ok(Box::new(KittiSource::open(config, context)?) as Box<dyn Source>),
+    )?)?;
+    registry.source.register(PluginEntry::new(
+        "cloud_dir",
+        "Folder of PCD/PLY clouds in name order, with an optional TUM trajectory as ground truth",
+        |config: CloudDirConfig, context: &PluginContext| {
+            Ok(Box::new(CloudDirSource::open(config, context)?) as Box<dyn Source>)
+        },
+    )?)?;
+    Ok(())
+}
+
+/// Resolves a configured path: as given when it exists, else under the data folder.
+pub(crate) fn resolve_path(path: &std::path::Path) -> std::path::PathBuf {
+    if path.is_absolute() || path.exists() {
+        return path.to_owned();
+    }
+    let under_data = skid_io::data_dir().join(path);
+    if under_data.exists() { under_data } else { path.to_owned() }
+}
+
+/// Converts a skid-io error into a plugin error.
+pub(crate) fn io_error(error: skid_io::IoError) -> PluginError {
+    PluginError::InvalidInput(error.to_string())
+}
