@@ -1,0 +1,22 @@
+//! SKiD's LiDAR simulator: deterministic procedural worlds, real sensor beam patterns, robot routes
+//! with exact ground truth and a 200 Hz IMU, the `sim` source plugin, KITTI export and PNG previews.
+//!
+//! - [`World`]: `planetary`, `cave` and `urban` worlds from a seed; terrain as a height field with a
+//!   min/max mip-map, objects and caves as triangles in a binned-SAH BVH.
+//! - [`Sensor`]: VLP-16, OS1-32, OS1-64, HDL-64E and a Livox-Avia-like non-repetitive solid-state model.
+//! - [`Trajectory`] and [`routes`]: routes for 1–16 robots that overlap in the same and the reverse
+//!   direction, partially, at crossings, and from far-apart starts; ground and aerial motion profiles.
+//! - [`SimSource`]: scans with per-point time offsets (motion distortion), noise, dropouts, spurious
+//!   returns, IMU samples and ground truth; [`register`] adds it to a registry as the `sim` source.
+//! - [`export_kitti`] and [`preview_png`]: files for other tools and for eyes.
+
+pub mod bvh;
+mod error;
+pub mod geometry;
+pub mod heightfield;
+pub mod noise;
+pub mod rng;
+pub mod world;
+
+pub use error::SimError;
+pub use world::{Hit, Material, RoadGraph, World, WorldKind};

@@ -1,0 +1,248 @@
+//! Procedural worlds, generated deterministically from a kind and a seed.
+//!
+//! A world is a terrain height field (surface worlds) plus a BVH over every object's triangles, and
+//! the drivable [`RoadGraph`] that routes walk on. See the `planetary`, `cave` and `urban` modules for
+//! what each kind contains.
+
+mod cave;
+pub mod graph;
+mod planetary;
+pub mod shapes;
+mod urban;
+
+use std::collections::HashMap;
+use std::fmt;
+use std::str::FromStr;
+use std::sync::{Arc, Mutex, Weak};
+
+use serde::{Deserialize, Serialize};
+
+pub use graph::RoadGraph;
+
+use crate::SimError;
+use crate::bvh::Bvh;
+use crate::geometry::{Ray, V3};
+use crate::heightfield::HeightField;
+
+/// The kinds of world the simulator generates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WorldKind {
+    /// Rolling fractal terrain with craters, ridges and rocks; almost no tall structure.
+    Planetary,
+    /// A branching network of irregular tunnels with junction chambers.
+    Cave,
+    /// A street grid with buildings, poles, parked cars and trees.
+    Urban,
+}
+
+impl WorldKind {
+    pub const ALL: [WorldKind; 3] = [WorldKind::Planetary, WorldKind::Cave, WorldKind::Urban];
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            WorldKind::Planetary => "planetary",
+            WorldKind::Cave => "cave",
+            WorldKind::Urban => "urban",
+        }
+    }
+}
+
+impl fmt::Display for WorldKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for WorldKind {
+    type Err = SimError;
+
+    fn from_str(name: &str) -> Result<Self, SimError> {
+        Self::ALL.into_iter().find(|k| k.name().eq_ignore_ascii_case(name.trim())).ok_or_else(|| SimError::UnknownWorld {
+            name: name.to_owned(),
+            known: Self::ALL.iter().map(|k| k.name().to_owned()).collect(),
+        })
+    }
+}
+
+/// Surface materials; the albedo drives simulated intensity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Material {
+    Regolith = 0,
+    Rock = 1,
+    Asphalt = 2,
+    Concrete = 3,
+    Facade = 4,
+    CarPaint = 5,
+    Bark = 6,
+    Foliage = 7,
+    Grass = 8,
+    CaveRock = 9,
+    Metal = 10,
+}
+
+impl Material {
+    const ALL: [Material; 11] = [
+        Material::Regolith,
+        Material::Rock,
+        Material::Asphalt,
+        Material::Concrete,
+        Material::Facade,
+        Material::CarPaint,
+        Material::Bark,
+        Material::Foliage,
+        Material::Grass,
+        Material::CaveRock,
+        Material::Metal,
+    ];
+
+    /// The material with index `index` (unknown indices read as rock).
+    pub fn from_index(index: u8) -> Self {
+        Self::ALL.get(usize::from(index)).copied().unwrap_or(Material::Rock)
+    }
+
+    /// Diffuse reflectivity at 905 nm, roughly after published LiDAR reflectivity tables.
+    pub const fn albedo(self) -> f32 {
+        match self {
+            Material::Regolith => 0.32,
+            Material::Rock => 0.24,
+            Material::Asphalt => 0.10,
+            Material::Concrete => 0.45,
+            Material::Facade => 0.35,
+            Material::CarPaint => 0.55,
+            Material::Bark => 0.30,
+            Material::Foliage => 0.50,
+            Material::Grass => 0.40,
+            Material::CaveRock => 0.20,
+            Material::Metal => 0.70,
+        }
+    }
+}
+
+/// The closest surface a ray meets.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub range_m: f32,
+    /// Unit surface normal (either side).
+    pub normal: V3,
+    pub material: Material,
+}
+
+/// A generated world.
+pub struct World {
+    kind: WorldKind,
+    seed: u64,
+    terrain: Option<HeightField>,
+    objects: Bvh,
+    graph: RoadGraph,
+    /// Lower and upper x/y corner of the region worth previewing.
+    extent_m: [f64; 4],
+}
+
+impl fmt::Debug for World {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("World")
+            .field("kind", &self.kind)
+            .field("seed", &self.seed)
+            .field("triangles", &self.objects.mesh().len())
+            .field("junctions", &self.graph.nodes.len())
+            .finish()
+    }
+}
+
+static CACHE: Mutex<Option<HashMap<(WorldKind, u64), Weak<World>>>> = Mutex::new(None);
+
+impl World {
+    /// Generates the world of `kind` for `seed`. The same arguments always give the same world.
+    pub fn generate(kind: WorldKind, seed: u64) -> Self {
+        let parts = match kind {
+            WorldKind::Planetary => planetary::generate(seed),
+            WorldKind::Cave => cave::generate(seed),
+            WorldKind::Urban => urban::generate(seed),
+        };
+        Self { kind, seed, terrain: parts.terrain, objects: Bvh::build(parts.objects), graph: parts.graph, extent_m: parts.extent_m }
+    }
+
+    /// The world of `kind` for `seed`, shared with every other holder in the process (robots of one
+    /// fleet build it once).
+    pub fn shared(kind: WorldKind, seed: u64) -> Arc<Self> {
+        let mut guard = CACHE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let cache = guard.get_or_insert_with(HashMap::new);
+        if let Some(world) = cache.get(&(kind, seed)).and_then(Weak::upgrade) {
+            return world;
+        }
+        let world = Arc::new(Self::generate(kind, seed));
+        cache.insert((kind, seed), Arc::downgrade(&world));
+        world
+    }
+
+    pub fn kind(&self) -> WorldKind {
+        self.kind
+    }
+
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// The drivable network.
+    pub fn graph(&self) -> &RoadGraph {
+        &self.graph
+    }
+
+    /// Lower-left and upper-right x/y corners of the interesting region: [x0, y0, x1, y1].
+    pub fn extent_m(&self) -> [f64; 4] {
+        self.extent_m
+    }
+
+    /// Number of object triangles (the terrain is implicit).
+    pub fn triangle_count(&self) -> usize {
+        self.objects.mesh().len()
+    }
+
+    /// The closest surface along `ray` within `max_range_m`.
+    pub fn cast(&self, ray: &Ray, max_range_m: f32) -> Option<Hit> {
+        let mut t_best = max_range_m;
+        let mut hit = None;
+        if let Some(terrain) = &self.terrain
+            && let Some((t, tri)) = terrain.cast(ray, t_best)
+        {
+            t_best = t;
+            let p = ray.at(t);
+            hit = Some(Hit { range_m: t, normal: tri.normal(), material: Material::from_index(terrain.material_at(p.x, p.y)) });
+        }
+        if let Some(object) = self.objects.cast(ray, t_best) {
+            let mesh = self.objects.mesh();
+            let i = object.triangle as usize;
+            hit = Some(Hit { range_m: object.t, normal: mesh.tris[i].normal(), material: Material::from_index(mesh.materials[i]) });
+        }
+        hit
+    }
+
+    /// Height of the first surface straight below (x, y, z_from_m), searching `depth_m` down.
+    pub fn ground_below(&self, x: f64, y: f64, z_from_m: f64, depth_m: f64) -> Option<f64> {
+        let ray = Ray::new(V3::from_f64(x, y, z_from_m), V3::new(0.0, 0.0, -1.0));
+        self.cast(&ray, depth_m as f32).map(|hit| z_from_m - f64::from(hit.range_m))
+    }
+
+    /// Distance from `p` to the nearest surface (terrain or object), up to `max_m`. Independent of the
+    /// ray caster: it uses closest-point queries, so tests can check rays against it.
+    pub fn distance_to_surface(&self, p: V3, max_m: f32) -> f32 {
+        let terrain = self.terrain.as_ref().map_or(f32::INFINITY, |t| t.distance_to_surface(p, 2));
+        let objects = self.objects.nearest(p, max_m.min(terrain)).map_or(f32::INFINITY, |(d, _)| d);
+        terrain.min(objects).min(max_m)
+    }
+
+    /// The terrain height at (x, y), for surface worlds.
+    pub fn terrain_height(&self, x: f64, y: f64) -> Option<f64> {
+        self.terrain.as_ref().map(|t| t.height_at(x, y))
+    }
+}
+
+/// What a generator hands back.
+pub(crate) struct WorldParts {
+    pub terrain: Option<HeightField>,
+    pub objects: crate::bvh::Mesh,
+    pub graph: RoadGraph,
+    pub extent_m: [f64; 4],
+}
