@@ -181,11 +181,15 @@ pub(crate) fn from_figment(figment: &Figment, error: figment::Error) -> ConfigEr
     let mut key = error.path.join(".");
     let message = match &error.kind {
         Kind::UnknownField(field, expected) => {
-            key = if key.is_empty() { field.clone() } else { format!("{key}.{field}") };
+            if error.path.last() != Some(field) {
+                key = if key.is_empty() { field.clone() } else { format!("{key}.{field}") };
+            }
             format!("unknown key `{field}`; expected one of: {}", expected.join(", "))
         }
         Kind::MissingField(field) => {
-            key = if key.is_empty() { field.to_string() } else { format!("{key}.{field}") };
+            if error.path.last().map(String::as_str) != Some(field.as_ref()) {
+                key = if key.is_empty() { field.to_string() } else { format!("{key}.{field}") };
+            }
             format!("missing key `{field}`")
         }
         other => other.to_string(),

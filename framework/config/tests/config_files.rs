@@ -1,0 +1,153 @@
+//! The configuration layers against real files: the repository's `configs/` and the deliberately broken
+//! files in `tests/bad/`. Every error must name the file (or layer), the full key path and what was
+//! expected.
+
+use std::path::PathBuf;
+
+use skid_config::{ConfigError, ConfigSources};
+use skid_core::{Registry, Slot};
+
+fn registry() -> Registry {
+    skid_builtin::registry().unwrap()
+}
+
+fn repo_configs() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../configs")
+}
+
+fn bad(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/bad").join(name)
+}
+
+fn sources() -> ConfigSources {
+    ConfigSources { config_dir: Some(repo_configs()), ..ConfigSources::default() }
+}
+
+fn load_with_overlay(name: &str) -> Result<skid_config::ResolvedConfig, ConfigError> {
+    ConfigSources { overlays: vec![bad(name)], ..sources() }.load(&registry())
+}
+
+#[test]
+fn default_profile_loads_and_fills_plugin_defaults() {
+    let config = sources().load(&registry()).unwrap();
+    assert_eq!(config.slot(Slot::Source).plugin, "kitti");
+    assert_eq!(config.slot(Slot::Odometry).plugin, "ground_truth");
+    assert!(config.slot(Slot::Odometry).params.table().contains_key("keyframe"));
+    let shown = config.to_toml_string();
+    assert!(shown.contains("[odometry.ground_truth.keyframe]"), "{shown}");
+    assert!(shown.contains("robots = 3"), "{shown}");
+}
+
+#[test]
+fn embedded_default_equals_the_file() {
+    let from_file = sources().load(&registry()).unwrap();
+    let embedded = ConfigSources::default().load(&registry()).unwrap();
+    assert_eq!(from_file, embedded);
+}
+
+#[test]
+fn every_profile_in_the_repository_validates() {
+    let profiles = sources().available_profiles();
+    for profile in profiles {
+        let config = ConfigSources { profile: Some(profile.clone()), ..sources() }.load(&registry());
+        assert!(config.is_ok(), "profile {profile}: {}", config.err().map(|e| e.to_string()).unwrap_or_default());
+    }
+}
+
+fn assert_invalid(error: ConfigError, file: &str, key: &str, expected: &[&str]) {
+    let text = error.to_string();
+    match &error {
+        ConfigError::Invalid { origin, key: got, .. } => {
+            assert!(origin.ends_with(file), "origin `{origin}` should name {file}: {text}");
+            assert_eq!(got, key, "{text}");
+        }
+        other => panic!("expected an invalid-key error, got {other:?}"),
+    }
+    for word in expected {
+        assert!(text.contains(word), "`{text}` should mention `{word}`");
+    }
+}
+
+#[test]
+fn typo_in_plugin_key_names_file_key_and_expected_keys() {
+    let error = load_with_overlay("typo_key.toml").unwrap_err();
+    assert_invalid(error, "typo_key.toml", "odometry.ground_truth.translation_noize_m", &["translation_noise_m", "rotation_noise_deg"]);
+}
+
+#[test]
+fn wrong_type_names_the_nested_key_and_the_expected_type() {
+    let error = load_with_overlay("wrong_type.toml").unwrap_err();
+    assert_invalid(error, "wrong_type.toml", "odometry.ground_truth.keyframe.distance_m", &["f64"]);
+}
+
+#[test]
+fn unknown_plugin_lists_the_known_ones() {
+    let error = load_with_overlay("unknown_plugin.toml").unwrap_err();
+    assert_invalid(error, "unknown_plugin.toml", "odometry.plugin", &["kiss_icq", "ground_truth", "none"]);
+}
+
+#[test]
+fn unknown_section_lists_the_expected_sections() {
+    let error = load_with_overlay("unknown_section.toml").unwrap_err();
+    assert_invalid(error, "unknown_section.toml", "runn", &["run", "descriptor"]);
+}
+
+#[test]
+fn parameters_for_a_plugin_of_another_name_are_refused() {
+    let error = load_with_overlay("unknown_plugin_table.toml").unwrap_err();
+    assert_invalid(error, "unknown_plugin_table.toml", "odometry.ground_truht", &["ground_truth"]);
+}
+
+#[test]
+fn robot_count_out_of_range() {
+    let error = load_with_overlay("robots_out_of_range.toml").unwrap_err();
+    assert_invalid(error, "robots_out_of_range.toml", "run.robots", &["1 to 16"]);
+}
+
+#[test]
+fn source_cannot_be_none() {
+    let error = load_with_overlay("source_none.toml").unwrap_err();
+    assert_invalid(error, "source_none.toml", "source.plugin", &["kitti"]);
+}
+
+#[test]
+fn syntax_error_names_file_and_line() {
+    let error = load_with_overlay("syntax.toml").unwrap_err();
+    let text = error.to_string();
+    assert!(matches!(error, ConfigError::Syntax { .. }), "{text}");
+    assert!(text.contains("syntax.toml") && text.contains("line 3"), "{text}");
+}
+
+#[test]
+fn missing_file_and_unknown_profile_are_errors() {
+    let error = load_with_overlay("does_not_exist.toml").unwrap_err();
+    assert!(matches!(error, ConfigError::MissingFile { .. }));
+    assert!(error.to_string().contains("does_not_exist.toml"));
+    let error = ConfigSources { profile: Some("nope".into()), ..sources() }.load(&registry()).unwrap_err();
+    assert!(matches!(error, ConfigError::UnknownProfile { .. }), "{error}");
+}
+
+#[test]
+fn set_overrides_win_and_errors_name_the_argument() {
+    let sets = vec!["odometry.ground_truth.scale_drift_percent=2.5".to_owned(), "run.name=trial".to_owned()];
+    let config = ConfigSources { sets, ..sources() }.load(&registry()).unwrap();
+    assert_eq!(config.run.name, "trial");
+    let drift = config.slot(Slot::Odometry).params.table()["scale_drift_percent"].as_float();
+    assert_eq!(drift, Some(2.5));
+
+    let sets = vec!["odometry.ground_truth.scale_drift_percent=lots".to_owned()];
+    let error = ConfigSources { sets, ..sources() }.load(&registry()).unwrap_err();
+    assert_invalid(error, "--set odometry.ground_truth.scale_drift_percent=lots", "odometry.ground_truth.scale_drift_percent", &["f64"]);
+
+    let error = ConfigSources { sets: vec!["novalue".into()], ..sources() }.load(&registry()).unwrap_err();
+    assert!(matches!(error, ConfigError::BadSetArgument { .. }), "{error}");
+}
+
+#[test]
+fn switching_plugins_does_not_inherit_the_old_plugin_keys() {
+    // The overlay selects `none`, so the default's ground_truth table stays valid but unused.
+    let sets = vec!["odometry.plugin=none".to_owned()];
+    let config = ConfigSources { sets, ..sources() }.load(&registry()).unwrap();
+    assert!(config.slot(Slot::Odometry).is_none());
+    assert!(config.slot(Slot::Odometry).params.table().is_empty());
+}
