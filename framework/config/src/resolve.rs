@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use figment::error::Kind;
-use figment::{Figment, Profile, Source};
+use figment::{Figment, Source};
 use skid_core::{Params, Registry, Slot};
 
 use crate::schema::{MAX_ROBOTS, NONE_PLUGIN, RawConfig, RawSlot};
@@ -168,9 +168,9 @@ fn describe_metadata(metadata: &figment::Metadata, key: &str) -> String {
             let shown = std::env::current_dir().ok().and_then(|cwd| path.strip_prefix(cwd).ok().map(|p| p.to_owned()));
             shown.unwrap_or_else(|| path.clone()).display().to_string()
         }
+        // The variable is named back from the key the way `SKID_<SECTION>__<KEY>` was split.
         _ if metadata.name.contains("environment") => {
-            let parts: Vec<&str> = key.split('.').collect();
-            format!("environment variable {}", metadata.interpolate(&Profile::Default, &parts))
+            format!("environment variable SKID_{}", key.to_uppercase().replace('.', "__"))
         }
         _ => metadata.name.to_string(),
     }

@@ -1,0 +1,125 @@
+//! The subcommands' bodies.
+
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use skid_config::{ConfigSources, ResolvedConfig};
+use skid_core::{Registry, Slot};
+
+use crate::LayerArgs;
+
+/// Every plugin the binary knows: the built-ins.
+fn registry() -> Result<Registry> {
+    skid_builtin::registry().context("registering the built-in plugins")
+}
+
+fn sources(profile: Option<String>, layers: &LayerArgs) -> ConfigSources {
+    let mut sources = ConfigSources::discover();
+    if layers.config_dir.is_some() {
+        sources.config_dir = layers.config_dir.clone();
+    }
+    sources.profile = profile;
+    sources.overlays = layers.overlays.clone();
+    sources.sets = layers.sets.clone();
+    sources
+}
+
+fn load(sources: &ConfigSources, registry: &Registry) -> Result<ResolvedConfig> {
+    Ok(sources.load(registry)?)
+}
+
+/// `skid run [PROFILE]`.
+pub fn run(profile: Option<String>, layers: &LayerArgs) -> Result<()> {
+    let registry = registry()?;
+    let config = load(&sources(profile, layers), &registry)?;
+    tracing::info!(
+        run = %config.run.name,
+        robots = config.run.robots,
+        source = %config.slot(Slot::Source).plugin,
+        odometry = %config.slot(Slot::Odometry).plugin,
+        "starting"
+    );
+    let mut fleet = skid_runtime::Fleet::build(config, &registry)?;
+    let mut last_report = std::time::Instant::now();
+    let summary = fleet.run_lockstep(|scans| {
+        if last_report.elapsed().as_secs_f64() > 2.0 {
+            tracing::info!(scans, "running");
+            last_report = std::time::Instant::now();
+        }
+    })?;
+    let folder = skid_runtime::write_outputs(&fleet, &summary)?;
+    tracing::info!(folder = %folder.display(), wall_s = summary.wall_s, "finished");
+    println!("{}", serde_json::to_string(&summary)?);
+    Ok(())
+}
+
+/// `skid plugins`.
+pub fn plugins(slot: Option<&str>, json: bool) -> Result<()> {
+    let registry = registry()?;
+    let slots: Vec<Slot> = match slot {
+        Some(key) => match Slot::from_key(key) {
+            Some(slot) => vec![slot],
+            None => bail!("unknown slot `{key}`; slots: {}", Slot::ALL.map(Slot::key).join(", ")),
+        },
+        None => Slot::ALL.to_vec(),
+    };
+    let infos: Vec<_> = slots.iter().flat_map(|&slot| registry.infos(slot)).collect();
+    if json {
+        let rows: Vec<_> = infos
+            .iter()
+            .map(|info| {
+                serde_json::json!({
+                    "slot": info.slot.key(),
+                    "name": info.name,
+                    "summary": info.summary,
+                    "origin": info.origin,
+                    "defaults": toml_to_json(info.defaults.table()),
+                })
+            })
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+        return Ok(());
+    }
+    for slot in slots {
+        println!("[{slot}]");
+        let infos = registry.infos(slot);
+        if infos.is_empty() {
+            println!("  (no plugins yet; use plugin = \"none\")\n");
+            continue;
+        }
+        for info in infos {
+            println!("  {}  {}", info.name, info.summary);
+            if info.origin != "built-in" {
+                println!("    from {}", info.origin);
+            }
+            let defaults = info.defaults.to_toml_string();
+            for line in defaults.lines().filter(|line| !line.trim().is_empty()) {
+                println!("      {line}");
+            }
+            println!();
+        }
+    }
+    Ok(())
+}
+
+fn toml_to_json(table: &toml::Table) -> serde_json::Value {
+    serde_json::to_value(table).unwrap_or(serde_json::Value::Null)
+}
+
+/// `skid config show`.
+pub fn config_show(profile: Option<String>, layers: &LayerArgs) -> Result<()> {
+    let registry = registry()?;
+    let config = load(&sources(profile, layers), &registry)?;
+    print!("{}", config.to_toml_string());
+    Ok(())
+}
+
+/// `skid config check FILE`.
+pub fn config_check(file: &Path, profile: Option<String>, layers: &LayerArgs) -> Result<()> {
+    let registry = registry()?;
+    let mut sources = sources(profile, layers);
+    sources.overlays.insert(0, file.to_owned());
+    load(&sources, &registry)?;
+    println!("{}: ok", file.display());
+    Ok(())
+}

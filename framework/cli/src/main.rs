@@ -1,0 +1,104 @@
+//! `skid`: the SKiD command line.
+//!
+//! - `skid run [PROFILE]` runs the fleet described by the default configuration (plus a profile);
+//! - `skid plugins` lists every registered plugin with its default parameters;
+//! - `skid config show|check` prints the merged configuration or validates a file.
+//!
+//! `-v`/`-vv` and `-q` set the log level; `RUST_LOG` overrides both.
+
+mod commands;
+mod logging;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(name = "skid", version, about = "SKiD: robust, lightweight, distributed multi-robot LiDAR SLAM")]
+struct Cli {
+    /// More log output (-v debug, -vv trace).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+    /// Only warnings and errors.
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    quiet: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run the fleet: every robot's pipeline on its source, outputs under `<output_dir>/<name>/`.
+    Run {
+        /// Profile overlay from `configs/profiles/` (for example `scan_context`).
+        profile: Option<String>,
+        #[command(flatten)]
+        layers: LayerArgs,
+    },
+    /// List every registered plugin: slot, name, summary and default parameters.
+    Plugins {
+        /// Only this slot (source, odometry, descriptor, coarse, fine, verifier, backend, transport).
+        #[arg(long)]
+        slot: Option<String>,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Show or check configurations.
+    #[command(subcommand)]
+    Config(ConfigCommand),
+}
+
+#[derive(Subcommand, Debug)]
+enum ConfigCommand {
+    /// Print the merged, validated configuration as TOML.
+    Show {
+        #[arg(long)]
+        profile: Option<String>,
+        #[command(flatten)]
+        layers: LayerArgs,
+    },
+    /// Validate FILE (an overlay on the default configuration); exits non-zero with the file, key and
+    /// expected values when something is wrong.
+    Check {
+        file: PathBuf,
+        #[arg(long)]
+        profile: Option<String>,
+        #[command(flatten)]
+        layers: LayerArgs,
+    },
+}
+
+/// Configuration layers shared by every command that loads a configuration.
+#[derive(Args, Debug, Clone, Default)]
+struct LayerArgs {
+    /// Override one value: `--set section.key=value` (repeatable; TOML values, bare strings allowed).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Extra overlay files merged after the profile (repeatable).
+    #[arg(long = "config", value_name = "FILE")]
+    overlays: Vec<PathBuf>,
+    /// Configuration folder holding `default.toml` and `profiles/` [default: $SKID_CONFIG_DIR, else the
+    /// nearest `configs/` above the current folder, else the embedded default].
+    #[arg(long, value_name = "DIR")]
+    config_dir: Option<PathBuf>,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    logging::init(cli.verbose, cli.quiet);
+    let result = match cli.command {
+        Command::Run { profile, layers } => commands::run(profile, &layers),
+        Command::Plugins { slot, json } => commands::plugins(slot.as_deref(), json),
+        Command::Config(ConfigCommand::Show { profile, layers }) => commands::config_show(profile, &layers),
+        Command::Config(ConfigCommand::Check { file, profile, layers }) => commands::config_check(&file, profile, &layers),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
