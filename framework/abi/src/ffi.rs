@@ -1,0 +1,241 @@
+//! The `#[repr(C)]` types that cross the plugin boundary, shared verbatim by the plugin and the host.
+//!
+//! The entry symbol [`ENTRY_SYMBOL`](crate::ENTRY_SYMBOL) returns a pointer to a static [`PluginDecl`].
+//! Its first three fields (ABI version at offset 0, layout fingerprint at offset 8, framework version at
+//! offset 16) keep their place in every ABI version, so a host can refuse a plugin from another version
+//! without reading anything else. The slot-specific function table sits behind an untyped pointer whose
+//! type [`SlotKind`] names, so new slots add a kind and a table without touching the declaration.
+//!
+//! Function pointers are `Option`s so that a null pointer from a foreign plugin is an error the host can
+//! report rather than undefined behaviour.
+
+use std::ffi::c_void;
+
+use skid_msgs::Point;
+
+/// A borrowed UTF-8 string: pointer and length in bytes, not NUL-terminated.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct AbiStr {
+    pub ptr: *const u8,
+    pub len: usize,
+}
+
+impl AbiStr {
+    /// A string that lives for the whole program, such as a plugin's name.
+    pub const fn from_static(text: &'static str) -> Self {
+        Self {
+            ptr: text.as_ptr(),
+            len: text.len(),
+        }
+    }
+
+    /// A string borrowed for the duration of one call.
+    pub const fn borrowed(text: &str) -> Self {
+        Self {
+            ptr: text.as_ptr(),
+            len: text.len(),
+        }
+    }
+
+    /// The bytes as a string slice, or `None` when the pointer is null or the bytes are not UTF-8.
+    ///
+    /// # Safety
+    ///
+    /// `ptr` must be null or point to `len` initialised bytes that stay valid and unchanged for `'a`.
+    pub unsafe fn to_str<'a>(self) -> Option<&'a str> {
+        if self.len == 0 {
+            return Some("");
+        }
+        if self.ptr.is_null() {
+            return None;
+        }
+        // SAFETY: the caller guarantees `len` readable bytes at a non-null `ptr` for `'a`.
+        let bytes = unsafe { std::slice::from_raw_parts(self.ptr, self.len) };
+        std::str::from_utf8(bytes).ok()
+    }
+}
+
+/// The outcome of every exported call.
+#[repr(transparent)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Status(pub i32);
+
+impl Status {
+    /// The call succeeded.
+    pub const OK: Status = Status(0);
+    /// The config string was rejected; the error buffer holds the offending key and the reason.
+    pub const CONFIG: Status = Status(1);
+    /// The plugin failed for a reason of its own; the error buffer holds the message.
+    pub const FAILED: Status = Status(2);
+    /// The plugin panicked; the panic was caught and its message is in the error buffer.
+    pub const PANICKED: Status = Status(3);
+    /// The output buffer is too small; the length output holds the length needed.
+    pub const BUFFER_TOO_SMALL: Status = Status(4);
+    /// A pointer or handle argument was null or otherwise unusable.
+    pub const INVALID_ARGUMENT: Status = Status(5);
+}
+
+/// Host-allocated buffers into which the plugin copies an error message and, for config errors, the
+/// dotted path of the offending key. The plugin writes at most the capacity (cutting at a character
+/// boundary) and stores the written length; it never allocates or frees these buffers.
+#[repr(C)]
+#[derive(Debug)]
+pub struct ErrorBuf {
+    pub message: *mut u8,
+    pub message_capacity: usize,
+    pub message_len: usize,
+    pub key: *mut u8,
+    pub key_capacity: usize,
+    pub key_len: usize,
+}
+
+/// What the host tells a plugin instance about where it runs (mirrors skid-core's `PluginContext`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct HostContext {
+    /// The robot this instance serves.
+    pub robot: u32,
+    /// Number of robots in the fleet.
+    pub fleet_size: u32,
+    /// Threads the instance may use; at least 1.
+    pub threads: u32,
+    /// Explicit padding.
+    pub reserved: u32,
+    /// Seed for anything random.
+    pub seed: u64,
+    /// Output folder as UTF-8, empty when there is none. Valid only during the `create` call.
+    pub output_dir: AbiStr,
+}
+
+/// Which slot a plugin fills, and so which table [`PluginDecl::slot_table`] points to.
+#[repr(transparent)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SlotKind(pub u32);
+
+impl SlotKind {
+    pub const SOURCE: SlotKind = SlotKind(1);
+    pub const ODOMETRY: SlotKind = SlotKind(2);
+    /// The table is a [`DescriptorVTable`].
+    pub const DESCRIPTOR: SlotKind = SlotKind(3);
+    pub const COARSE: SlotKind = SlotKind(4);
+    pub const FINE: SlotKind = SlotKind(5);
+    pub const VERIFIER: SlotKind = SlotKind(6);
+    pub const BACKEND: SlotKind = SlotKind(7);
+    pub const TRANSPORT: SlotKind = SlotKind(8);
+}
+
+/// Log levels on the wire: 1 = error, 2 = warn, 3 = info, 4 = debug, 5 = trace.
+pub mod level {
+    pub const ERROR: u32 = 1;
+    pub const WARN: u32 = 2;
+    pub const INFO: u32 = 3;
+    pub const DEBUG: u32 = 4;
+    pub const TRACE: u32 = 5;
+}
+
+/// The host's logging callback: level, plugin name, the event's target, the formatted message.
+/// The strings are valid only during the call.
+pub type LogFn = unsafe extern "C" fn(level: u32, plugin: AbiStr, target: AbiStr, message: AbiStr);
+
+/// The host's filter: whether an event of this level and target would be recorded.
+pub type EnabledFn = unsafe extern "C" fn(level: u32, target: AbiStr) -> bool;
+
+/// Installs the host's logging callbacks as the plugin's `tracing` subscriber (once per library).
+pub type SetLoggerFn = unsafe extern "C" fn(log: Option<LogFn>, enabled: Option<EnabledFn>) -> Status;
+
+/// The static declaration a plugin's entry symbol returns.
+#[repr(C)]
+#[derive(Debug)]
+pub struct PluginDecl {
+    /// [`ABI_VERSION`](crate::ABI_VERSION) of the skid-abi the plugin was built with. Offset 0, forever.
+    pub abi_version: u32,
+    /// Explicit padding.
+    pub reserved: u32,
+    /// `skid_msgs::LAYOUT_FINGERPRINT` of the plugin's build. Offset 8, forever.
+    pub layout_fingerprint: u64,
+    /// Version of the skid-abi crate the plugin was built with. Offset 16, forever.
+    pub framework_version: AbiStr,
+    /// The slot the plugin fills.
+    pub slot_kind: SlotKind,
+    /// Explicit padding.
+    pub reserved2: u32,
+    /// The registry name.
+    pub name: AbiStr,
+    /// One line for `skid plugins`.
+    pub summary: AbiStr,
+    /// The default parameters as TOML text.
+    pub default_config: AbiStr,
+    pub set_logger: Option<SetLoggerFn>,
+    /// Points to the slot's function table, e.g. a [`DescriptorVTable`] when the kind is a descriptor.
+    pub slot_table: *const c_void,
+}
+
+// SAFETY: a declaration holds only pointers to immutable `'static` data (string literals and a static
+// function table) and function pointers, so sharing it between threads is sound.
+unsafe impl Sync for PluginDecl {}
+
+/// An opaque instance handle, owned by the plugin; the host only passes it back.
+pub type Handle = *mut c_void;
+
+/// Builds an instance from a UTF-8 TOML config string and the host context.
+pub type CreateFn = unsafe extern "C" fn(
+    config: AbiStr,
+    context: *const HostContext,
+    out_handle: *mut Handle,
+    error: *mut ErrorBuf,
+) -> Status;
+
+/// The length of the descriptor this instance produces.
+pub type DescriptorLenFn =
+    unsafe extern "C" fn(handle: Handle, out_len: *mut usize, error: *mut ErrorBuf) -> Status;
+
+/// Describes `count` points into `out` (capacity `capacity` values); stores the length written, or the
+/// length needed with [`Status::BUFFER_TOO_SMALL`].
+pub type DescribeFn = unsafe extern "C" fn(
+    handle: Handle,
+    points: *const Point,
+    count: usize,
+    out: *mut f32,
+    capacity: usize,
+    out_len: *mut usize,
+    error: *mut ErrorBuf,
+) -> Status;
+
+/// Drops an instance; the handle is invalid afterwards whatever the status.
+pub type DestroyFn = unsafe extern "C" fn(handle: Handle, error: *mut ErrorBuf) -> Status;
+
+/// The descriptor slot's function table ([`SlotKind::DESCRIPTOR`]).
+#[repr(C)]
+#[derive(Debug)]
+pub struct DescriptorVTable {
+    pub create: Option<CreateFn>,
+    pub descriptor_len: Option<DescriptorLenFn>,
+    pub describe: Option<DescribeFn>,
+    pub destroy: Option<DestroyFn>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_version_prefix_never_moves() {
+        assert_eq!(std::mem::offset_of!(PluginDecl, abi_version), 0);
+        assert_eq!(std::mem::offset_of!(PluginDecl, layout_fingerprint), 8);
+        assert_eq!(std::mem::offset_of!(PluginDecl, framework_version), 16);
+    }
+
+    #[test]
+    fn abi_str_round_trips() {
+        let text = AbiStr::from_static("ring_histogram");
+        // SAFETY: the string is a literal.
+        assert_eq!(unsafe { text.to_str() }, Some("ring_histogram"));
+        let null = AbiStr {
+            ptr: std::ptr::null(),
+            len: 3,
+        };
+        // SAFETY: a null pointer is checked before any read.
+        assert_eq!(unsafe { null.to_str() }, None);
+    }
+}

@@ -1,0 +1,104 @@
+//! One call into a plugin: the host-owned error buffers and the mapping of a status to an error.
+
+use skid_core::{ParamError, PluginError};
+
+use crate::ffi::{ErrorBuf, Status};
+
+/// Room for an error message; longer messages are cut by the plugin.
+const MESSAGE_CAPACITY: usize = 4096;
+/// Room for the dotted path of an offending config key.
+const KEY_CAPACITY: usize = 512;
+
+/// What a failed call reported.
+#[derive(Debug)]
+pub(crate) struct CallError {
+    pub(crate) status: Status,
+    pub(crate) key: String,
+    pub(crate) message: String,
+}
+
+impl CallError {
+    /// The skid-core error for this failure in plugin `plugin`.
+    pub(crate) fn into_plugin_error(self, plugin: &str) -> PluginError {
+        match self.status {
+            Status::CONFIG => PluginError::Params(self.into_param_error(plugin)),
+            Status::PANICKED => PluginError::Panicked {
+                plugin: plugin.to_owned(),
+                message: self.message,
+            },
+            Status::FAILED => PluginError::failed(plugin, self.message),
+            Status::BUFFER_TOO_SMALL | Status::INVALID_ARGUMENT => PluginError::failed(
+                plugin,
+                format!("ABI misuse (status {}): {}", self.status.0, self.message),
+            ),
+            Status(other) => PluginError::failed(plugin, format!("unknown status {other}: {}", self.message)),
+        }
+    }
+
+    /// The parameter error for this failure; failures other than a refused config name the status.
+    pub(crate) fn into_param_error(self, plugin: &str) -> ParamError {
+        match self.status {
+            Status::CONFIG => ParamError {
+                path: self.key,
+                message: self.message,
+            },
+            Status::PANICKED => ParamError {
+                path: String::new(),
+                message: format!(
+                    "plugin `{plugin}` panicked while reading its parameters: {}",
+                    self.message
+                ),
+            },
+            _ => ParamError {
+                path: String::new(),
+                message: format!(
+                    "plugin `{plugin}` failed while reading its parameters: {}",
+                    self.message
+                ),
+            },
+        }
+    }
+}
+
+/// Host-allocated buffers for one call's error report.
+pub(crate) struct ErrorSlot {
+    message: Vec<u8>,
+    key: Vec<u8>,
+    raw: ErrorBuf,
+}
+
+impl ErrorSlot {
+    pub(crate) fn new() -> Self {
+        let mut message = vec![0_u8; MESSAGE_CAPACITY];
+        let mut key = vec![0_u8; KEY_CAPACITY];
+        let raw = ErrorBuf {
+            message: message.as_mut_ptr(),
+            message_capacity: message.len(),
+            message_len: 0,
+            key: key.as_mut_ptr(),
+            key_capacity: key.len(),
+            key_len: 0,
+        };
+        // Moving the vectors into the struct moves only their headers; the heap buffers stay put.
+        Self { message, key, raw }
+    }
+
+    /// The pointer to pass to the plugin.
+    pub(crate) fn as_mut_ptr(&mut self) -> *mut ErrorBuf {
+        &mut self.raw
+    }
+
+    /// `Ok` for [`Status::OK`], otherwise the error the plugin wrote.
+    pub(crate) fn result(&self, status: Status) -> Result<(), CallError> {
+        if status == Status::OK {
+            return Ok(());
+        }
+        let text =
+            |bytes: &[u8], len: usize| String::from_utf8_lossy(&bytes[..len.min(bytes.len())]).into_owned();
+        Err(CallError {
+            status,
+            key: text(&self.key, self.raw.key_len),
+            message: text(&self.message, self.raw.message_len),
+        })
+    }
+}

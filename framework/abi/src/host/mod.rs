@@ -1,0 +1,161 @@
+//! The host side (feature `host`): opens plugin libraries, checks them, and wraps their C tables back
+//! into skid-core's slot traits so they register into a [`Registry`] like built-ins.
+//!
+//! Libraries are never unloaded: each one is leaked into a process-wide list the first time it loads,
+//! and loading the same file again returns the same plugin. Instances are destroyed by their wrappers'
+//! `Drop`, always before the process ends and always while their library is still mapped.
+
+mod call;
+mod descriptor;
+mod index;
+mod library;
+mod logging;
+
+use std::path::{Path, PathBuf};
+
+use skid_core::{ParamError, Params, PluginError, Registry, Slot};
+
+pub use descriptor::DynDescriptor;
+pub use index::ExactL2Index;
+pub use logging::PLUGIN_TARGET;
+
+use library::Library;
+
+/// Why a plugin library could not be loaded or registered.
+#[derive(Debug, thiserror::Error)]
+pub enum AbiError {
+    /// The file does not exist.
+    #[error("plugin library {} not found", path.display())]
+    NotFound { path: PathBuf },
+
+    /// The file exists but the dynamic loader refused it.
+    #[error("{} is not a loadable plugin library: {source}", path.display())]
+    NotALibrary {
+        path: PathBuf,
+        source: libloading::Error,
+    },
+
+    /// The library does not export the entry symbol.
+    #[error("{} exports no `{symbol}` symbol; is it a SKiD plugin built with skid-abi's export macro? ({source})", path.display())]
+    MissingSymbol {
+        path: PathBuf,
+        symbol: &'static str,
+        source: libloading::Error,
+    },
+
+    /// The plugin speaks another version of the C ABI.
+    #[error("{}: plugin built for ABI v{plugin}, host speaks v{host}; rebuild the plugin against this skid-abi", path.display())]
+    AbiVersion { path: PathBuf, plugin: u32, host: u32 },
+
+    /// The plugin's wire types have another layout.
+    #[error(
+        "{}: wire type layout mismatch (plugin fingerprint {plugin:#018x}, host {host:#018x}); rebuild the plugin against this skid-msgs",
+        path.display()
+    )]
+    Layout { path: PathBuf, plugin: u64, host: u64 },
+
+    /// The plugin was built against an incompatible framework version.
+    #[error("{}: plugin built for SKiD {plugin}, host is SKiD {host}", path.display())]
+    FrameworkVersion {
+        path: PathBuf,
+        plugin: String,
+        host: String,
+    },
+
+    /// The plugin fills a slot this host cannot load dynamically yet.
+    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: descriptor)", path.display())]
+    UnsupportedSlot { path: PathBuf, name: String, kind: u32 },
+
+    /// The declaration is broken: a null pointer, a non-UTF-8 string, an unparsable default config.
+    #[error("{}: malformed plugin declaration: {reason}", path.display())]
+    Malformed { path: PathBuf, reason: String },
+
+    /// The plugin could not be registered (a plugin of the same name is already there).
+    #[error("registering plugin from {}: {source}", path.display())]
+    Register { path: PathBuf, source: PluginError },
+}
+
+/// A plugin library that passed every check; cheap to copy, valid for the rest of the process.
+#[derive(Clone, Copy, Debug)]
+pub struct LoadedPlugin {
+    library: &'static Library,
+}
+
+/// Opens the plugin library at `path`, checks its ABI version, layout fingerprint and framework
+/// version, and installs the host's logger in it. Loading the same file again returns the same plugin.
+pub fn load_library(path: impl AsRef<Path>) -> Result<LoadedPlugin, AbiError> {
+    library::load(path.as_ref()).map(|library| LoadedPlugin { library })
+}
+
+/// Loads the plugin library at `path` and registers it into `registry`.
+pub fn load_into(registry: &mut Registry, path: impl AsRef<Path>) -> Result<LoadedPlugin, AbiError> {
+    let plugin = load_library(path)?;
+    plugin.register(registry)?;
+    Ok(plugin)
+}
+
+impl LoadedPlugin {
+    /// The registry name.
+    pub fn name(&self) -> &'static str {
+        &self.library.name
+    }
+
+    /// The one-line summary.
+    pub fn summary(&self) -> &'static str {
+        &self.library.summary
+    }
+
+    /// The slot the plugin fills.
+    pub fn slot(&self) -> Slot {
+        self.library.slot
+    }
+
+    /// The file the plugin was loaded from (canonical).
+    pub fn path(&self) -> &'static Path {
+        &self.library.path
+    }
+
+    /// The framework version the plugin was built against.
+    pub fn framework_version(&self) -> &'static str {
+        &self.library.framework_version
+    }
+
+    /// The default parameters, as the plugin declares them.
+    pub fn default_params(&self) -> &'static Params {
+        &self.library.defaults
+    }
+
+    /// Registers the plugin into its slot's table of `registry`.
+    pub fn register(&self, registry: &mut Registry) -> Result<(), AbiError> {
+        let result = match self.library.slot {
+            Slot::Descriptor => registry.descriptor.register(descriptor::entry(self.library)),
+            other => unreachable_slot(other),
+        };
+        result.map_err(|source| AbiError::Register {
+            path: self.library.path.clone(),
+            source,
+        })
+    }
+
+    /// Checks parameters by building an instance and destroying it again.
+    pub fn validate(&self, params: &Params) -> Result<(), ParamError> {
+        descriptor::validate(self.library, params)
+    }
+
+    /// A descriptor instance built from `params`, for callers that do not go through a [`Registry`].
+    pub fn create_descriptor(
+        &self,
+        params: &Params,
+        context: &skid_core::PluginContext,
+    ) -> Result<DynDescriptor, PluginError> {
+        DynDescriptor::create(self.library, params, context)
+    }
+}
+
+/// Loading refuses every slot but the descriptor, so no other slot reaches registration.
+fn unreachable_slot(slot: Slot) -> Result<(), PluginError> {
+    Err(PluginError::failed(
+        "skid-abi",
+        format!("dynamic {slot} plugins are not supported"),
+    ))
+}

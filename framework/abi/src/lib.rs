@@ -1,0 +1,71 @@
+//! SKiD's versioned C ABI for out-of-tree plugins built as `cdylib`s.
+//!
+//! Rust trait objects cannot cross a dynamic-library boundary soundly, so a plugin exports one
+//! `extern "C"` symbol, [`ENTRY_SYMBOL`], returning a pointer to a static [`ffi::PluginDecl`]: ABI version,
+//! wire-type layout fingerprint and framework version first, then the slot kind, name, summary, default
+//! TOML config, a logger installer and the slot's function table. Only `#[repr(C)]` data and
+//! `extern "C"` function pointers cross; every exported function catches panics; config crosses as
+//! UTF-8 TOML that the plugin parses itself; outputs and error messages go into host-allocated buffers.
+//!
+//! - Plugin side (always compiled, light): implement [`DescriptorPlugin`] in safe Rust and call
+//!   [`export_descriptor!`]. Use [`parse_config`] for `deny_unknown_fields` configs with key paths.
+//! - Host side (feature `host`): [`load_library`] opens, checks and wraps a library into a
+//!   [`LoadedPlugin`], which registers itself into a `skid_core::Registry`.
+
+// Unsafe code is the point of this crate: it declares the C ABI, reads raw pointers handed across it,
+// and exports `#[no_mangle]` symbols. Every unsafe block carries a `SAFETY:` comment.
+#![allow(unsafe_code)]
+
+pub mod ffi;
+pub mod plugin;
+
+#[cfg(feature = "host")]
+pub mod host;
+
+pub use plugin::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
+
+#[cfg(feature = "host")]
+pub use host::{AbiError, LoadedPlugin, load_into, load_library};
+
+/// Version of the C ABI. Bump it on any change to the declaration or a function table.
+pub const ABI_VERSION: u32 = 1;
+
+/// The version of this crate, which a plugin and the host must agree on (same major, and same minor
+/// while the major is 0).
+pub const FRAMEWORK_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// The name of the entry symbol every plugin library exports.
+pub const ENTRY_SYMBOL: &str = "skid_plugin_entry";
+
+/// The signature of the entry symbol.
+pub type EntryFn = extern "C" fn() -> *const ffi::PluginDecl;
+
+/// True when a plugin built against framework version `plugin` can be loaded by a host of version
+/// `host`: same major version and, while the major version is 0, the same minor version.
+pub fn framework_versions_compatible(plugin: &str, host: &str) -> bool {
+    fn major_minor(version: &str) -> Option<(u64, u64)> {
+        let mut parts = version.split('.');
+        let major = parts.next()?.parse().ok()?;
+        let minor = parts.next()?.parse().ok()?;
+        Some((major, minor))
+    }
+    match (major_minor(plugin), major_minor(host)) {
+        (Some((0, plugin_minor)), Some((0, host_minor))) => plugin_minor == host_minor,
+        (Some((plugin_major, _)), Some((host_major, _))) => plugin_major == host_major,
+        _ => false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn framework_version_compatibility_follows_semver() {
+        assert!(framework_versions_compatible("0.1.0", "0.1.7"));
+        assert!(!framework_versions_compatible("0.2.0", "0.1.0"));
+        assert!(framework_versions_compatible("1.2.0", "1.5.3"));
+        assert!(!framework_versions_compatible("2.0.0", "1.0.0"));
+        assert!(!framework_versions_compatible("garbage", "0.1.0"));
+    }
+}

@@ -1,0 +1,227 @@
+//! The plugin side: the safe trait a plugin author implements, config parsing helpers, and the
+//! [`export_descriptor!`](crate::export_descriptor) macro that turns an implementation into the C ABI.
+//!
+//! A plugin crate (`crate-type = ["cdylib"]`, depending on `skid-abi` without the `host` feature) writes:
+//!
+//! ```
+//! use serde::Deserialize;
+//! use skid_abi::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
+//! use skid_msgs::Point;
+//!
+//! #[derive(Default, Deserialize)]
+//! #[serde(default, deny_unknown_fields)]
+//! struct Config {
+//!     scale: f32,
+//! }
+//!
+//! /// The mean height of the cloud, times `scale`.
+//! struct MeanHeight {
+//!     config: Config,
+//! }
+//!
+//! impl DescriptorPlugin for MeanHeight {
+//!     const NAME: &'static str = "mean_height";
+//!     const SUMMARY: &'static str = "Mean point height";
+//!     const DEFAULT_CONFIG: &'static str = "scale = 1.0\n";
+//!
+//!     fn from_config(config: &str, _context: &InstanceContext) -> Result<Self, ConfigError> {
+//!         Ok(Self { config: parse_config(config)? })
+//!     }
+//!
+//!     fn descriptor_len(&self) -> usize {
+//!         1
+//!     }
+//!
+//!     fn describe(&mut self, points: &[Point], out: &mut [f32]) -> Result<(), String> {
+//!         if points.is_empty() {
+//!             return Err("empty cloud".to_owned());
+//!         }
+//!         out[0] = self.config.scale * points.iter().map(|p| p.z).sum::<f32>() / points.len() as f32;
+//!         Ok(())
+//!     }
+//! }
+//!
+//! skid_abi::export_descriptor!(MeanHeight);
+//! # fn main() {}
+//! ```
+//!
+//! and no `unsafe` code: the macro's generated items carry their own `#[allow(unsafe_code)]`.
+
+mod glue;
+mod logger;
+mod panic_hook;
+
+use std::fmt;
+
+use serde::de::DeserializeOwned;
+use skid_msgs::Point;
+
+pub use glue::{descriptor_decl, descriptor_vtable};
+
+/// What the host tells a new instance about where it runs (skid-core's `PluginContext`, as it crosses).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct InstanceContext {
+    /// The robot this instance serves.
+    pub robot: u32,
+    /// Number of robots in the fleet.
+    pub fleet_size: u32,
+    /// Threads the instance may use (size any rayon pool from it); at least 1.
+    pub threads: usize,
+    /// Seed for anything random, so runs are reproducible.
+    pub seed: u64,
+    /// Folder for the run's outputs, when the host has one.
+    pub output_dir: Option<String>,
+}
+
+impl Default for InstanceContext {
+    /// One robot, one thread, seed 0, no output folder: the host's defaults.
+    fn default() -> Self {
+        Self {
+            robot: 0,
+            fleet_size: 1,
+            threads: 1,
+            seed: 0,
+            output_dir: None,
+        }
+    }
+}
+
+/// A config string the plugin refuses: the dotted path of the offending key (empty for the whole
+/// config) and the reason.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ConfigError {
+    pub key: String,
+    pub message: String,
+}
+
+impl ConfigError {
+    /// An error about one key.
+    pub fn for_key(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.key.is_empty() {
+            f.write_str(&self.message)
+        } else {
+            write!(f, "key `{}`: {}", self.key, self.message)
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+impl From<String> for ConfigError {
+    fn from(message: String) -> Self {
+        Self {
+            key: String::new(),
+            message,
+        }
+    }
+}
+
+impl From<&str> for ConfigError {
+    fn from(message: &str) -> Self {
+        Self::from(message.to_owned())
+    }
+}
+
+/// Parses a TOML config string into the plugin's config type, reporting the path of the offending key
+/// the same way the host reports built-in plugins' parameters (use `#[serde(default, deny_unknown_fields)]`
+/// on the type so missing keys take defaults and unknown keys are refused).
+pub fn parse_config<C: DeserializeOwned>(text: &str) -> Result<C, ConfigError> {
+    let table = text
+        .parse::<toml::Table>()
+        .map_err(|error| ConfigError::from(error.to_string()))?;
+    serde_path_to_error::deserialize::<_, C>(toml::Value::Table(table)).map_err(|error| {
+        let path = error.path().to_string();
+        ConfigError {
+            key: if path == "." { String::new() } else { path },
+            message: error.inner().to_string(),
+        }
+    })
+}
+
+/// A global place-recognition descriptor implemented in safe Rust, exported with
+/// [`export_descriptor!`](crate::export_descriptor).
+pub trait DescriptorPlugin: Sized + Send + 'static {
+    /// The registry name, e.g. `ring_histogram`.
+    const NAME: &'static str;
+    /// One line for `skid plugins`.
+    const SUMMARY: &'static str;
+    /// The default parameters as TOML text; [`from_config`](Self::from_config) must accept it.
+    const DEFAULT_CONFIG: &'static str;
+
+    /// Builds an instance from TOML config text; missing keys take their defaults, unknown keys are
+    /// an error.
+    fn from_config(config: &str, context: &InstanceContext) -> Result<Self, ConfigError>;
+
+    /// The number of values [`describe`](Self::describe) writes.
+    fn descriptor_len(&self) -> usize;
+
+    /// Describes a keyframe cloud (sensor frame) into `out`, which has exactly
+    /// [`descriptor_len`](Self::descriptor_len) values.
+    fn describe(&mut self, points: &[Point], out: &mut [f32]) -> Result<(), String>;
+}
+
+/// Exports a [`DescriptorPlugin`] implementation as this library's plugin: generates the static
+/// declaration, the descriptor function table and the `skid_plugin_entry` symbol.
+/// Use it once per library.
+#[macro_export]
+macro_rules! export_descriptor {
+    ($plugin:ty) => {
+        const _: () = {
+            static SKID_DESCRIPTOR_VTABLE: $crate::ffi::DescriptorVTable =
+                $crate::plugin::descriptor_vtable::<$plugin>();
+
+            static SKID_PLUGIN_DECL: $crate::ffi::PluginDecl =
+                $crate::plugin::descriptor_decl::<$plugin>(&SKID_DESCRIPTOR_VTABLE);
+
+            /// The plugin's entry symbol: the host reads the declaration it points to.
+            // `no_mangle` counts as unsafe code; the symbol name is the ABI's and unique per library.
+            #[allow(unsafe_code)]
+            #[unsafe(no_mangle)]
+            pub extern "C" fn skid_plugin_entry() -> *const $crate::ffi::PluginDecl {
+                &SKID_PLUGIN_DECL
+            }
+        };
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde::Deserialize;
+
+    #[derive(Debug, Default, Deserialize, PartialEq)]
+    #[serde(default, deny_unknown_fields)]
+    struct Example {
+        num_rings: u32,
+        max_range_m: f32,
+    }
+
+    #[test]
+    fn parse_config_takes_defaults_and_names_unknown_keys() {
+        let parsed: Example = parse_config("num_rings = 3").unwrap();
+        assert_eq!(
+            parsed,
+            Example {
+                num_rings: 3,
+                max_range_m: 0.0
+            }
+        );
+        let error = parse_config::<Example>("num_ringz = 3").unwrap_err();
+        assert_eq!(error.key, "num_ringz");
+        assert!(error.message.contains("num_rings"), "{error}");
+        let error = parse_config::<Example>("num_rings = ").unwrap_err();
+        assert!(
+            error.key.is_empty() && error.message.contains("line 1"),
+            "{error}"
+        );
+    }
+}
