@@ -1,2 +1,106 @@
-//! placeholder
-fn main() {}
+//! `cargo xtask`: the project's own automation.
+//!
+//! - `ci`: format check, clippy with warnings denied, and the test suite (what `.ci/run` calls);
+//! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code);
+//! - `bench <profile>`: runs a benchmark profile in release mode, writing `target/bench/<profile>/`.
+
+use std::process::{Command, ExitCode};
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "cargo xtask")]
+struct Cli {
+    #[command(subcommand)]
+    command: Task,
+}
+
+#[derive(Subcommand)]
+enum Task {
+    /// Format check, clippy (warnings denied), tidy and the tests.
+    Ci,
+    /// Check the house rules on every Rust file.
+    Tidy,
+    /// Run a benchmark profile in release mode (`cargo xtask bench list` shows them).
+    Bench {
+        profile: String,
+        /// Extra arguments passed to the benchmark.
+        #[arg(trailing_var_arg = true)]
+        args: Vec<String>,
+    },
+}
+
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Task::Ci => ci(),
+        Task::Tidy => tidy(),
+        Task::Bench { profile, args } => bench(&profile, &args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("xtask: {error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn cargo() -> Command {
+    let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned()));
+    command.current_dir(xtask::workspace_root());
+    command
+}
+
+fn run(mut command: Command) -> Result<()> {
+    eprintln!("xtask: running {command:?}");
+    let status = command.status().with_context(|| format!("starting {command:?}"))?;
+    if !status.success() {
+        bail!("{command:?} failed with {status}");
+    }
+    Ok(())
+}
+
+fn ci() -> Result<()> {
+    let mut fmt = cargo();
+    fmt.args(["fmt", "--all", "--", "--check"]);
+    run(fmt)?;
+    tidy()?;
+    let mut clippy = cargo();
+    clippy.args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]);
+    run(clippy)?;
+    let mut test = cargo();
+    test.args(["test", "--workspace"]);
+    run(test)
+}
+
+fn tidy() -> Result<()> {
+    let violations = xtask::tidy::check(&xtask::workspace_root())?;
+    if violations.is_empty() {
+        eprintln!("xtask: tidy ok");
+        return Ok(());
+    }
+    for violation in &violations {
+        eprintln!("{violation}");
+    }
+    bail!("{} tidy violations", violations.len())
+}
+
+fn bench(profile: &str, args: &[String]) -> Result<()> {
+    let profiles = xtask::bench::PROFILES;
+    if profile == "list" {
+        for entry in profiles {
+            println!("{:<12} {}", entry.name, entry.summary);
+        }
+        return Ok(());
+    }
+    let Some(entry) = profiles.iter().find(|entry| entry.name == profile) else {
+        let names: Vec<_> = profiles.iter().map(|entry| entry.name).collect();
+        bail!("unknown bench profile `{profile}`; profiles: {}", names.join(", "));
+    };
+    let out = xtask::workspace_root().join("target/bench").join(profile);
+    let mut command = cargo();
+    command.args(["run", "--release", "--package", entry.package, "--bin", entry.binary, "--"]);
+    command.arg("--out").arg(&out).args(args);
+    run(command)
+}

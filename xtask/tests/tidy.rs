@@ -1,0 +1,8 @@
+//! The house rules hold for the whole workspace (the same check as `cargo xtask tidy`).
+
+#[test]
+fn workspace_is_tidy() {
+    let violations = xtask::tidy::check(&xtask::workspace_root()).unwrap();
+    let report: Vec<String> = violations.iter().map(ToString::to_string).collect();
+    assert!(report.is_empty(), "tidy violations:\n{}", report.join("\n"));
+}
