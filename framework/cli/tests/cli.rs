@@ -1,0 +1,92 @@
+//! The `skid` binary end to end: plugin listing, configuration display and checking (including
+//! environment overrides set on the child process), and a short run on the real KITTI excerpt.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn skid(args: &[&str], envs: &[(&str, &str)]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_skid"));
+    command.current_dir(repo()).args(args).env_remove("RUST_LOG");
+    for (key, value) in envs {
+        command.env(key, value);
+    }
+    command.output().expect("skid runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn plugins_lists_every_slot_with_defaults() {
+    let output = skid(&["plugins"], &[]);
+    assert!(output.status.success());
+    let stdout = text(&output.stdout);
+    for expected in ["[source]", "kitti", "cloud_dir", "[odometry]", "ground_truth", "translation_noise_m = 0.0", "[transport]"] {
+        assert!(stdout.contains(expected), "missing {expected} in:\n{stdout}");
+    }
+    let json = skid(&["plugins", "--json", "--slot", "odometry"], &[]);
+    let rows: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert_eq!(rows[0]["name"], "ground_truth");
+    assert_eq!(rows[0]["defaults"]["keyframe"]["distance_m"], 2.0);
+    let bad = skid(&["plugins", "--slot", "odometryy"], &[]);
+    assert!(!bad.status.success());
+    assert!(text(&bad.stderr).contains("unknown slot `odometryy`"));
+}
+
+#[test]
+fn config_show_prints_the_merged_default_as_toml() {
+    let output = skid(&["config", "show", "--set", "run.robots=2"], &[("SKID_RUN__SEED", "99")]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let shown: toml::Table = text(&output.stdout).parse().unwrap();
+    assert_eq!(shown["run"]["robots"].as_integer(), Some(2));
+    assert_eq!(shown["run"]["seed"].as_integer(), Some(99));
+    assert_eq!(shown["source"]["plugin"].as_str(), Some("kitti"));
+    assert!(shown["odometry"]["ground_truth"]["keyframe"].is_table());
+}
+
+#[test]
+fn config_check_reports_file_key_and_expected_keys() {
+    let bad = repo().join("framework/config/tests/bad/typo_key.toml");
+    let output = skid(&["config", "check", bad.to_str().unwrap()], &[]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(stderr.contains("typo_key.toml"), "{stderr}");
+    assert!(stderr.contains("odometry.ground_truth.translation_noize_m"), "{stderr}");
+    assert!(stderr.contains("translation_noise_m"), "{stderr}");
+    let good = skid(&["config", "check", "configs/default.toml"], &[]);
+    assert!(good.status.success(), "{}", text(&good.stderr));
+}
+
+#[test]
+fn a_bad_environment_variable_is_named() {
+    let output = skid(&["config", "show"], &[("SKID_RUN__ROBOTZ", "2")]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(stderr.contains("SKID_RUN__ROBOTZ") && stderr.contains("robots"), "{stderr}");
+}
+
+#[test]
+fn run_writes_trajectories_and_a_summary() {
+    let out = tempfile::tempdir().unwrap();
+    let out_arg = format!("run.output_dir={}", out.path().display());
+    let output = skid(&["-q", "run", "--set", &out_arg, "--set", "run.robots=2", "--set", "run.name=e2e"], &[]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(summary["robots"].as_array().unwrap().len(), 2);
+    let folder = out.path().join("e2e");
+    for robot in ["robot0", "robot1"] {
+        let trajectory = skid_io_read_tum(&folder.join(robot).join("trajectory.tum"));
+        assert!(trajectory >= 8, "{robot}: {trajectory} poses");
+    }
+    assert!(folder.join("config.toml").is_file());
+    assert!(folder.join("summary.json").is_file());
+}
+
+fn skid_io_read_tum(path: &Path) -> usize {
+    std::fs::read_to_string(path).unwrap().lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty()).count()
+}
