@@ -5,7 +5,7 @@
 //! |---|---|
 //! | [`kitti`] | KITTI Velodyne `.bin` scans, `calib.txt`, `times.txt` |
 //! | [`pcd`] | PCL PCD v0.7 with `DATA ascii`, `binary` and `binary_compressed` (LZF) |
-//! | [`ply`] | PLY `ascii`, `binary_little_endian` (and reading `binary_big_endian`) |
+//! | [`ply`] | PLY `ascii`, `binary_little_endian`, `binary_big_endian` |
 //! | [`trajectory`] | TUM (`stamp tx ty tz qx qy qz qw`) and KITTI (3x4 per line) trajectories |
 //! | [`g2o`] | g2o 2D/3D pose graphs (`VERTEX_SE2`, `EDGE_SE2`, `VERTEX_SE3:QUAT`, `EDGE_SE3:QUAT`, `FIX`) |
 //! | [`toro`] | TORO 2D/3D pose graphs (`VERTEX2`, `EDGE2`, `VERTEX3`, `EDGE3`, `EQUIV`) |

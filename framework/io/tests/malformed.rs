@@ -178,6 +178,16 @@ fn pcd_header_errors_name_the_line() {
             "BOGUS 1",
             "line 2: unknown PCD header keyword \"BOGUS\"",
         ),
+        (
+            "COUNT 1 1 1 1",
+            "COUNT 1 1 1 0",
+            "line 6: field \"intensity\" has COUNT 0",
+        ),
+        (
+            "POINTS 1\n",
+            "POINTS 18446744073709551615\n",
+            "line 10: POINTS 18446744073709551615 disagrees",
+        ),
     ] {
         let (_dir, path) = file("h.pcd", good.replace(from, to));
         let text = message(read_pcd(&path, OPTIONS), &path);
@@ -248,6 +258,13 @@ fn ply_errors_name_offset_or_line() {
     assert!(message(read_ply(&path, OPTIONS), &path).contains("file ends before element \"vertex\" #2"));
     let (_dir, path) = file("fmt.ply", ascii.replace("format ascii 1.0", "format utf8 1.0"));
     assert!(message(read_ply(&path, OPTIONS), &path).contains("line 2: unknown PLY format \"utf8\""));
+    // Huge counts in a corrupt header give errors, not an allocation failure or an endless loop.
+    let huge = ascii.replace("element vertex 3", "element vertex 18446744073709551615");
+    let (_dir, path) = file("huge.ply", huge);
+    assert!(message(read_ply(&path, OPTIONS), &path).contains("file ends before element \"vertex\" #3"));
+    let empty = ascii.replace("end_header", "element nothing 18446744073709551615\nend_header");
+    let (_dir, path) = file("empty.ply", empty);
+    assert_eq!(read_ply(&path, OPTIONS).unwrap().points.len(), 3);
     let (_dir, path) = file("noply.ply", "PLY\n");
     assert!(message(read_ply(&path, OPTIONS), &path).contains("line 1: not a PLY file"));
 }
@@ -406,4 +423,68 @@ fn missing_file_is_an_io_error_naming_it() {
     let err = read_kitti_bin(&path, OPTIONS).unwrap_err();
     assert_eq!(err.path(), path.as_path());
     assert!(Location::Line(3).to_string() == "line 3");
+}
+
+#[test]
+fn truncated_and_corrupted_files_never_panic() {
+    let cloud = points(40);
+    let mut samples: Vec<(&str, Vec<u8>)> = vec![("k.bin", kitti_bin_bytes(&cloud))];
+    for data in [PcdData::Ascii, PcdData::Binary, PcdData::BinaryCompressed] {
+        samples.push((
+            "p.pcd",
+            pcd_bytes(&cloud, &PcdWriteOptions::new(data), "x".as_ref()).unwrap(),
+        ));
+    }
+    for format in [
+        PlyFormat::Ascii,
+        PlyFormat::BinaryLittleEndian,
+        PlyFormat::BinaryBigEndian,
+    ] {
+        samples.push(("p.ply", ply_bytes(&cloud, format)));
+    }
+    samples.push(("g.g2o", b"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nFIX 0\n".to_vec()));
+    samples.push((
+        "g.graph",
+        b"VERTEX2 0 0 0 0\nEDGE2 0 1 1 0 0 1 0 1 1 0 0\nEQUIV 0 1\n".to_vec(),
+    ));
+    samples.push(("t.tum", b"0 1 2 3 0 0 0 1\n1 1 2 3 0 0 0.5 1\n".to_vec()));
+    samples.push(("p.txt", b"1 0 0 0 0 1 0 0 0 0 1 0\n".to_vec()));
+
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = 0x2545_F491_u32;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state as usize
+    };
+    let mut errors = 0;
+    for (name, good) in &samples {
+        let path = dir.path().join(name);
+        let mut variants: Vec<Vec<u8>> = (0..good.len()).step_by(13).map(|n| good[..n].to_vec()).collect();
+        for _ in 0..40 {
+            let mut bad = good.clone();
+            for _ in 0..1 + next() % 4 {
+                let at = next() % bad.len();
+                bad[at] = next() as u8;
+            }
+            variants.push(bad);
+        }
+        for bytes in variants {
+            std::fs::write(&path, &bytes).unwrap();
+            let ok = match *name {
+                "k.bin" => read_kitti_bin(&path, OPTIONS).is_ok(),
+                "p.pcd" => read_pcd(&path, OPTIONS).is_ok(),
+                "p.ply" => read_ply(&path, OPTIONS).is_ok(),
+                "g.g2o" => read_g2o(&path, &G2oReadOptions::default()).is_ok(),
+                "g.graph" => {
+                    read_toro(&path, InformationConvention::Toro, &G2oReadOptions::default()).is_ok()
+                }
+                "t.tum" => read_tum(&path).is_ok(),
+                _ => read_kitti_poses(&path).is_ok(),
+            };
+            errors += usize::from(!ok);
+        }
+    }
+    assert!(errors > 60, "only {errors} of the damaged files were rejected");
 }

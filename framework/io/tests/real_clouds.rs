@@ -104,6 +104,27 @@ fn kitti_calib_times_and_poses_agree() {
     let cam = read_kitti_poses(data(&format!("{KITTI}/poses.txt"))).unwrap();
     let velo = read_kitti_poses(data(&format!("{KITTI}/poses_velodyne.txt"))).unwrap();
     assert_eq!((cam.len(), velo.len()), (16, 16));
+    // KITTI prints 7 digits: the stored rotations are slightly off orthonormal and are re-orthonormalised.
+    let text = std::fs::read_to_string(data(&format!("{KITTI}/poses.txt"))).unwrap();
+    let mut worst = 0.0_f64;
+    for (line, pose) in text.lines().zip(&cam) {
+        let v: Vec<f64> = line.split_whitespace().map(|t| t.parse().unwrap()).collect();
+        let stored = nalgebra::Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
+        let (_, deviation) = skid_io::geometry::nearest_rotation(&stored).unwrap();
+        worst = worst.max(deviation);
+        let read = pose.rotation.to_rotation_matrix();
+        assert!((read.matrix() - stored).abs().max() < 1e-6);
+        assert!(
+            (read.matrix().transpose() * read.matrix() - nalgebra::Matrix3::identity())
+                .abs()
+                .max()
+                < 1e-15
+        );
+    }
+    assert!(
+        worst > 1e-8 && worst < 1e-5,
+        "largest deviation from a rotation {worst}"
+    );
     // PROVENANCE: T_velo_i = Tr^-1 * T_cam_i * Tr.
     for (c, v) in cam.iter().zip(&velo) {
         let derived: Isometry3<f64> = tr.inverse() * c * tr;

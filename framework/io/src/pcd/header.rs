@@ -263,6 +263,13 @@ fn build_fields(
     let mut fields = Vec::with_capacity(names.len());
     for (i, name) in names.into_iter().enumerate() {
         let (size, letter, count) = (sizes[i], types[i], counts[i]);
+        if count == 0 {
+            return Err(IoError::at_line(
+                path,
+                count_line,
+                format!("field \"{name}\" has COUNT 0"),
+            ));
+        }
         let kind = match (letter, size) {
             ('F', 4 | 8) => PcdFieldKind::Float,
             ('U', 1 | 2 | 4 | 8) => PcdFieldKind::Unsigned,

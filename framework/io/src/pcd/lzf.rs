@@ -26,7 +26,8 @@ const HASH_BITS: u32 = 14;
 ///
 /// On failure returns the offset within `input` of the chunk that is wrong and a sentence saying why.
 pub fn decompress(input: &[u8], expected_len: usize) -> Result<Vec<u8>, (usize, String)> {
-    let mut out: Vec<u8> = Vec::with_capacity(expected_len);
+    // One 3-byte back-reference expands to at most 264 bytes, which bounds a trustworthy allocation.
+    let mut out: Vec<u8> = Vec::with_capacity(expected_len.min(input.len().saturating_mul(88)));
     let mut i = 0;
     while i < input.len() {
         let chunk_start = i;

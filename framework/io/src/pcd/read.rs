@@ -124,7 +124,8 @@ pub fn read_pcd_raw(
     let (header, data_offset, header_lines) = parse_header(path, &bytes)?;
     let layout = Layout::new(path, &header, header_lines)?;
     let mut filter = CloudFilter::new(path, options);
-    let mut points = Vec::with_capacity(header.points);
+    // The header's count is not trusted for the allocation: a lying POINTS must give an error, not an abort.
+    let mut points = Vec::with_capacity(header.points.min(bytes.len()));
     let mut push = |index: usize, point: RawPoint, at: Location| -> Result<(), IoError> {
         if filter.keep(index, &point, at)? {
             points.push(point);

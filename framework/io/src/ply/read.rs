@@ -228,10 +228,15 @@ fn read_body(
         }
     }
     let mut filter = CloudFilter::new(path, options);
-    let mut points = Vec::with_capacity(vertex.count);
+    // The header's count is not trusted for the allocation (a corrupt count must give an error, not an abort).
+    let mut points = Vec::with_capacity(vertex.count.min(1 << 20));
     for (element_index, element) in header.elements.iter().enumerate() {
         source.begin_element(element)?;
         let is_vertex = element_index == vertex_index;
+        if element.properties.is_empty() {
+            // Instances without properties occupy no data; do not loop over a possibly huge count.
+            continue;
+        }
         for instance in 0..element.count {
             let at = source.location();
             let mut values = [0.0_f64; 4];
