@@ -1,6 +1,6 @@
 //! The subcommands' bodies.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use skid_config::{ConfigSources, ResolvedConfig};
@@ -8,9 +8,15 @@ use skid_core::{Registry, Slot};
 
 use crate::LayerArgs;
 
-/// Every plugin the binary knows: the built-ins.
-fn registry() -> Result<Registry> {
-    skid_builtin::registry().context("registering the built-in plugins")
+/// Every plugin the binary knows: the built-ins, then the out-of-tree libraries given on the command line.
+pub fn registry(plugin_libs: &[PathBuf]) -> Result<Registry> {
+    let mut registry = skid_builtin::registry().context("registering the built-in plugins")?;
+    for path in plugin_libs {
+        let plugin = skid_abi::load_into(&mut registry, path)
+            .with_context(|| format!("loading plugin library {}", path.display()))?;
+        tracing::debug!(plugin = plugin.name(), slot = %plugin.slot(), path = %path.display(), "loaded plugin library");
+    }
+    Ok(registry)
 }
 
 fn sources(profile: Option<String>, layers: &LayerArgs) -> ConfigSources {
@@ -29,9 +35,8 @@ fn load(sources: &ConfigSources, registry: &Registry) -> Result<ResolvedConfig> 
 }
 
 /// `skid run [PROFILE]`.
-pub fn run(profile: Option<String>, layers: &LayerArgs) -> Result<()> {
-    let registry = registry()?;
-    let config = load(&sources(profile, layers), &registry)?;
+pub fn run(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> Result<()> {
+    let config = load(&sources(profile, layers), registry)?;
     tracing::info!(
         run = %config.run.name,
         robots = config.run.robots,
@@ -39,7 +44,7 @@ pub fn run(profile: Option<String>, layers: &LayerArgs) -> Result<()> {
         odometry = %config.slot(Slot::Odometry).plugin,
         "starting"
     );
-    let mut fleet = skid_runtime::Fleet::build(config, &registry)?;
+    let mut fleet = skid_runtime::Fleet::build(config, registry)?;
     let mut last_report = std::time::Instant::now();
     let summary = fleet.run_lockstep(|scans| {
         if last_report.elapsed().as_secs_f64() > 2.0 {
@@ -54,8 +59,7 @@ pub fn run(profile: Option<String>, layers: &LayerArgs) -> Result<()> {
 }
 
 /// `skid plugins`.
-pub fn plugins(slot: Option<&str>, json: bool) -> Result<()> {
-    let registry = registry()?;
+pub fn plugins(registry: &Registry, slot: Option<&str>, json: bool) -> Result<()> {
     let slots: Vec<Slot> = match slot {
         Some(key) => match Slot::from_key(key) {
             Some(slot) => vec![slot],
@@ -107,19 +111,17 @@ fn toml_to_json(table: &toml::Table) -> serde_json::Value {
 }
 
 /// `skid config show`.
-pub fn config_show(profile: Option<String>, layers: &LayerArgs) -> Result<()> {
-    let registry = registry()?;
-    let config = load(&sources(profile, layers), &registry)?;
+pub fn config_show(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> Result<()> {
+    let config = load(&sources(profile, layers), registry)?;
     print!("{}", config.to_toml_string());
     Ok(())
 }
 
 /// `skid config check FILE`.
-pub fn config_check(file: &Path, profile: Option<String>, layers: &LayerArgs) -> Result<()> {
-    let registry = registry()?;
+pub fn config_check(registry: &Registry, file: &Path, profile: Option<String>, layers: &LayerArgs) -> Result<()> {
     let mut sources = sources(profile, layers);
     sources.overlays.insert(0, file.to_owned());
-    load(&sources, &registry)?;
+    load(&sources, registry)?;
     println!("{}: ok", file.display());
     Ok(())
 }

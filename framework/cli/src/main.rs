@@ -23,6 +23,10 @@ struct Cli {
     /// Only warnings and errors.
     #[arg(short, long, global = true, conflicts_with = "verbose")]
     quiet: bool,
+    /// Load an out-of-tree plugin library (a cdylib built with `skid-abi`); repeatable. Also read from
+    /// `SKID_PLUGIN_LIBS` (paths separated by `:`).
+    #[arg(long = "plugin-lib", value_name = "PATH", global = true, env = "SKID_PLUGIN_LIBS", value_delimiter = ':')]
+    plugin_libs: Vec<PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
@@ -88,12 +92,14 @@ struct LayerArgs {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     logging::init(cli.verbose, cli.quiet);
-    let result = match cli.command {
-        Command::Run { profile, layers } => commands::run(profile, &layers),
-        Command::Plugins { slot, json } => commands::plugins(slot.as_deref(), json),
-        Command::Config(ConfigCommand::Show { profile, layers }) => commands::config_show(profile, &layers),
-        Command::Config(ConfigCommand::Check { file, profile, layers }) => commands::config_check(&file, profile, &layers),
-    };
+    let result = commands::registry(&cli.plugin_libs).and_then(|registry| match cli.command {
+        Command::Run { profile, layers } => commands::run(&registry, profile, &layers),
+        Command::Plugins { slot, json } => commands::plugins(&registry, slot.as_deref(), json),
+        Command::Config(ConfigCommand::Show { profile, layers }) => commands::config_show(&registry, profile, &layers),
+        Command::Config(ConfigCommand::Check { file, profile, layers }) => {
+            commands::config_check(&registry, &file, profile, &layers)
+        }
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
