@@ -77,7 +77,7 @@ pub enum IoError {
         message: String,
     },
 
-    /// The test and benchmark data directory (see [`crate::data_dir`]) or a file in it is absent.
+    /// The test and benchmark data directory (see [`crate::data_dir()`]) or a file in it is absent.
     #[error(
         "{}: data not found; set the SKID_DATA_DIR environment variable to the shared data directory \
          (default <workspace>/../shared/data)",

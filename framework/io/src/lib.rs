@@ -9,7 +9,7 @@
 //! | [`trajectory`] | TUM (`stamp tx ty tz qx qy qz qw`) and KITTI (3x4 per line) trajectories |
 //! | [`g2o`] | g2o 2D/3D pose graphs (`VERTEX_SE2`, `EDGE_SE2`, `VERTEX_SE3:QUAT`, `EDGE_SE3:QUAT`, `FIX`) |
 //! | [`toro`] | TORO 2D/3D pose graphs (`VERTEX2`, `EDGE2`, `VERTEX3`, `EDGE3`, `EQUIV`) |
-//! | [`data_dir`] | where the shared test data lives (`SKID_DATA_DIR`) |
+//! | [`mod@data_dir`] | where the shared test data lives (`SKID_DATA_DIR`) |
 //!
 //! Every function returns `Result<_, IoError>`; a malformed file gives an error whose `Display` names the
 //! file and the line (text) or byte offset (binary), and a truncated file says how many bytes were

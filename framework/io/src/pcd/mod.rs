@@ -12,8 +12,8 @@
 //! [`read_pcd_raw`] the per-point `time` (seconds, as the Velodyne ROS driver writes it) or `t`
 //! (nanoseconds, as Ouster writes it) and `ring`. Every other field (normals, curvature, `_` padding,
 //! histograms with `COUNT > 1`, ...) is skipped. Organised clouds with NaN or `(0, 0, 0)` "no return"
-//! points are handled through [`CloudReadOptions`](crate::CloudReadOptions), and the counts are in the
-//! returned [`CloudReport`](crate::CloudReport).
+//! points are handled through [`crate::CloudReadOptions`], and the counts are in the
+//! returned [`crate::CloudReport`].
 //!
 //! The writer stores `x y z intensity` as four F4 fields in any of the three storages.
 
