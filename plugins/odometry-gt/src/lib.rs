@@ -73,7 +73,11 @@ pub struct GroundTruthOdometry {
     trigger: KeyframeTrigger,
     /// Ground truth and estimate at the previous scan.
     previous: Option<(Pose, Pose)>,
+    previous_stamp_nanos: Option<u64>,
 }
+
+/// Fewest finite points a scan must have to be used.
+pub const MIN_SCAN_POINTS: usize = 10;
 
 impl GroundTruthOdometry {
     pub fn new(config: GroundTruthConfig, context: &PluginContext) -> PluginResult<Self> {
@@ -95,6 +99,7 @@ impl GroundTruthOdometry {
             context: context.clone(),
             config,
             previous: None,
+            previous_stamp_nanos: None,
         })
     }
 
@@ -112,6 +117,20 @@ impl GroundTruthOdometry {
 
 impl Odometry for GroundTruthOdometry {
     fn register(&mut self, scan: &Scan) -> PluginResult<OdometryUpdate> {
+        // Refuse unusable scans before touching any state, as every odometry does.
+        let finite = scan.points.iter().filter(|p| p.is_finite()).count();
+        if finite < MIN_SCAN_POINTS {
+            return Err(PluginError::InvalidInput(format!(
+                "scan {} of {}: {finite} finite points, at least {MIN_SCAN_POINTS} needed",
+                scan.sequence, scan.robot
+            )));
+        }
+        if let Some(previous) = self.previous_stamp_nanos.filter(|&previous| scan.stamp_nanos <= previous) {
+            return Err(PluginError::InvalidInput(format!(
+                "scan {} of {}: stamp {} ns does not advance past the previous scan's {previous} ns",
+                scan.sequence, scan.robot, scan.stamp_nanos
+            )));
+        }
         let ground_truth = scan.ground_truth_world_from_sensor.ok_or_else(|| {
             PluginError::InvalidInput(format!(
                 "scan {} of {} has no ground-truth pose; the ground_truth odometry needs a source that provides one",
@@ -127,6 +146,7 @@ impl Odometry for GroundTruthOdometry {
             }
         };
         self.previous = Some((ground_truth, world_from_sensor));
+        self.previous_stamp_nanos = Some(scan.stamp_nanos);
         let keyframe = self.trigger.check(scan.stamp_nanos, &world_from_sensor).map(|index| {
             let deskewed = deskew_constant_velocity(&scan.points, &previous_from_current, self.config.scan_period_s);
             Keyframe {
@@ -149,7 +169,7 @@ mod tests {
         Scan {
             sequence,
             stamp_nanos: u64::from(sequence) * 100_000_000,
-            points: vec![RawPoint::new(5.0, 0.0, 0.0, 1.0, 0.0, 0); 3],
+            points: vec![RawPoint::new(5.0, 0.0, 0.0, 1.0, 0.0, 0); 12],
             ground_truth_world_from_sensor: Some(Pose::translation(x_m, 2.0, 0.0)),
             ..Scan::default()
         }
@@ -184,6 +204,14 @@ mod tests {
         bad.ground_truth_world_from_sensor = None;
         let error = odometry.register(&bad).unwrap_err().to_string();
         assert!(error.contains("no ground-truth pose"), "{error}");
+    }
+
+    #[test]
+    fn conformance() {
+        skid_testkit::odometry::check_odometry(
+            || Box::new(GroundTruthOdometry::new(GroundTruthConfig::default(), &PluginContext::default()).unwrap()),
+            skid_testkit::odometry::OdometryExpectations { max_translation_error_m: 1e-9, max_rotation_error_deg: 1e-9 },
+        );
     }
 
     #[test]

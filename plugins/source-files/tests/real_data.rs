@@ -37,6 +37,16 @@ fn kitti_source_reads_every_scan_with_lidar_frame_ground_truth() {
 }
 
 #[test]
+fn kitti_and_cloud_dir_pass_the_source_conformance_suite() {
+    let config = KittiConfig { path: kitti_folder(), ..KittiConfig::default() };
+    let mut source = KittiSource::open(config, &PluginContext::default()).unwrap();
+    assert_eq!(skid_testkit::source::check_source(&mut source, 100), 16);
+    let folder = skid_io::data_dir().join("lidar_scan_pair_fast_gicp");
+    let mut source = CloudDirSource::open(CloudDirConfig { path: folder, ..CloudDirConfig::default() }, &PluginContext::default()).unwrap();
+    assert_eq!(skid_testkit::source::check_source(&mut source, 100), 2);
+}
+
+#[test]
 fn kitti_split_gives_each_robot_a_segment() {
     let folder = kitti_folder();
     let config = KittiConfig {

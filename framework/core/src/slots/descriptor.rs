@@ -23,7 +23,9 @@ pub struct PlaceCandidate {
     pub id: KeyframeId,
     /// Descriptor distance as the plugin defines it; smaller is more similar.
     pub distance: f64,
-    /// Yaw of the query relative to the candidate, when the descriptor can tell (radians).
+    /// Yaw of `candidate_from_query` in radians, when the descriptor can tell: the rotation about the
+    /// sensor's z axis that takes query points into the candidate's frame, i.e. the initial guess of a
+    /// registration with the candidate as target and the query as source.
     pub yaw_hint_rad: Option<f64>,
 }
 

@@ -1,0 +1,160 @@
+//! Conformance of back-ends (a drifting square closed by one loop) and [`ChainGraph`], a plain
+//! [`GraphView`] over per-robot odometry chains that verifier suites run against.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Matrix3, Matrix6, Vector3};
+use skid_core::slots::{Backend, GraphView, LoopClosure, OdometryMeasurement, OptimizeBudget, RelativePose};
+use skid_core::{Information, KeyframeId, LoopId, Pose};
+
+use crate::pose_error;
+use crate::scene::planar_pose;
+
+/// Odometry chains per robot with first-order covariance propagation, and a list of loops.
+#[derive(Clone, Debug, Default)]
+pub struct ChainGraph {
+    /// Per robot: poses by keyframe index (the odometry estimate).
+    poses: BTreeMap<KeyframeId, Pose>,
+    /// Covariance of each odometry step `index - 1 -> index`.
+    step_covariance: BTreeMap<KeyframeId, Information>,
+    loops: Vec<LoopClosure>,
+}
+
+/// The adjoint of SE(3) in (translation, rotation) order: maps a twist in the frame of `pose`'s source
+/// into its target frame.
+pub fn adjoint(pose: &Pose) -> Matrix6<f64> {
+    let rotation = pose.rotation.to_rotation_matrix().into_inner();
+    let t = pose.translation.vector;
+    let skew = Matrix3::new(0.0, -t.z, t.y, t.z, 0.0, -t.x, -t.y, t.x, 0.0);
+    let mut ad = Matrix6::zeros();
+    ad.fixed_view_mut::<3, 3>(0, 0).copy_from(&rotation);
+    ad.fixed_view_mut::<3, 3>(0, 3).copy_from(&(skew * rotation));
+    ad.fixed_view_mut::<3, 3>(3, 3).copy_from(&rotation);
+    ad
+}
+
+impl ChainGraph {
+    /// Appends keyframe `id` at `world_from_sensor`, with the covariance of the step from the previous one.
+    pub fn push(&mut self, id: KeyframeId, world_from_sensor: Pose, step_covariance: Information) {
+        self.poses.insert(id, world_from_sensor);
+        self.step_covariance.insert(id, step_covariance);
+    }
+
+    /// Records an accepted loop.
+    pub fn add_loop(&mut self, closure: LoopClosure) {
+        self.loops.push(closure);
+    }
+}
+
+impl GraphView for ChainGraph {
+    fn pose(&self, id: KeyframeId) -> Option<Pose> {
+        self.poses.get(&id).copied()
+    }
+
+    fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
+        if target.robot != source.robot {
+            return None;
+        }
+        let target_pose = self.poses.get(&target)?;
+        let source_pose = self.poses.get(&source)?;
+        let (low, high) = if target.index <= source.index { (target.index, source.index) } else { (source.index, target.index) };
+        // Covariance of low_from_high: the steps' covariances moved into the low frame and summed.
+        let low_pose = self.poses.get(&KeyframeId { robot: target.robot, index: low })?;
+        let mut covariance = Matrix6::zeros();
+        for index in low + 1..=high {
+            let id = KeyframeId { robot: target.robot, index };
+            let previous = self.poses.get(&KeyframeId { robot: target.robot, index: index - 1 })?;
+            let ad = adjoint(&(low_pose.inverse() * previous));
+            covariance += ad * self.step_covariance.get(&id)? * ad.transpose();
+        }
+        let target_from_source = target_pose.inverse() * source_pose;
+        if target.index > source.index {
+            // Express the covariance of high_from_low in the high frame.
+            let ad = adjoint(&target_from_source);
+            covariance = ad * covariance * ad.transpose();
+        }
+        Some(RelativePose { target_from_source, covariance })
+    }
+
+    fn keyframes(&self) -> Vec<KeyframeId> {
+        self.poses.keys().copied().collect()
+    }
+
+    fn loops(&self) -> Vec<LoopClosure> {
+        self.loops.clone()
+    }
+}
+
+/// Ground truth of the square: 40 keyframes, 10 per 10 m side, ending where it began.
+pub fn square_truth(index: u32) -> Pose {
+    let side = index / 10;
+    let along = f64::from(index % 10);
+    let (x, y, yaw) = match side {
+        0 => (along, 0.0, 0.0),
+        1 => (10.0, along, 90.0),
+        2 => (10.0 - along, 10.0, 180.0),
+        _ => (0.0, 10.0 - along, 270.0),
+    };
+    planar_pose(x, y, 0.0, f64::to_radians(yaw))
+}
+
+/// Runs the back-end contract on `backend`.
+pub fn check_backend(backend: &mut dyn Backend) {
+    let odometry_information = Information::identity() * 100.0;
+    let drift = Pose::new(Vector3::new(0.02, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.5f64.to_radians()));
+    let mut estimate = Pose::identity();
+    let count = 40;
+    for index in 0..count {
+        let id = KeyframeId::new(0, index);
+        if index > 0 {
+            let truth_step = square_truth(index - 1).inverse() * square_truth(index);
+            let measured = truth_step * drift;
+            estimate *= measured;
+            backend.add_keyframe(id, estimate).expect("add keyframe");
+            let measurement = OdometryMeasurement {
+                target: KeyframeId::new(0, index - 1),
+                source: id,
+                target_from_source: measured,
+                information: odometry_information,
+            };
+            backend.add_odometry(measurement).expect("add odometry");
+        } else {
+            backend.add_keyframe(id, estimate).expect("add keyframe");
+        }
+    }
+    assert!(backend.add_keyframe(KeyframeId::new(0, 0), Pose::identity()).is_err(), "a keyframe cannot be added twice");
+    let dangling = OdometryMeasurement {
+        target: KeyframeId::new(0, 100),
+        source: KeyframeId::new(0, 101),
+        target_from_source: Pose::identity(),
+        information: odometry_information,
+    };
+    assert!(backend.add_odometry(dangling).is_err(), "odometry between unknown keyframes is an error");
+
+    let last = KeyframeId::new(0, count - 1);
+    backend.optimize(OptimizeBudget::default()).expect("optimise the chain");
+    let before = backend.graph().pose(last).expect("last pose");
+    let (drift_error_m, _) = pose_error(&square_truth(count - 1), &before);
+
+    let closure = LoopClosure {
+        id: LoopId(1),
+        target: KeyframeId::new(0, 0),
+        source: last,
+        target_from_source: square_truth(0).inverse() * square_truth(count - 1),
+        information: Information::identity() * 1000.0,
+    };
+    backend.add_loop(closure).expect("add loop");
+    let report = backend.optimize(OptimizeBudget::default()).expect("optimise with the loop");
+    assert!(report.final_cost.is_finite() && report.final_cost <= report.initial_cost + 1e-9, "cost does not increase");
+    let after = backend.graph().pose(last).expect("last pose");
+    let (closed_error_m, _) = pose_error(&square_truth(count - 1), &after);
+    assert!(closed_error_m < drift_error_m * 0.25, "the loop pulls the end in: {drift_error_m:.3} m -> {closed_error_m:.3} m");
+    assert_eq!(backend.graph().loops().len(), 1);
+
+    backend.remove_loop(LoopId(1)).expect("remove loop");
+    assert!(backend.remove_loop(LoopId(1)).is_err(), "removing an unknown loop is an error");
+    backend.optimize(OptimizeBudget::default()).expect("optimise without the loop");
+    let restored = backend.graph().pose(last).expect("last pose");
+    let (restored_difference_m, _) = pose_error(&before, &restored);
+    assert!(restored_difference_m < 1e-3, "removing the loop restores the odometry solution ({restored_difference_m} m)");
+}
