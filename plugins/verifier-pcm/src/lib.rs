@@ -1,0 +1,1 @@
+//! SKiD loop verification: truncated-MSE fitness and pairwise consistency maximisation (PCM).
