@@ -121,7 +121,8 @@ impl Bvh {
         }
         let mut best: Option<MeshHit> = None;
         let mut t_best = t_max;
-        let mut stack = [0u32; 64];
+        // Pending subtrees with the distance at which the ray enters them.
+        let mut stack = [(0u32, 0.0f32); 64];
         let mut depth = 0usize;
         let mut node = &self.nodes[0];
         ray.slab(node.bounds.min, node.bounds.max, t_best)?;
@@ -138,36 +139,33 @@ impl Bvh {
                 let (a, b) = (node.first as usize, node.first as usize + 1);
                 let ta = ray.slab(self.nodes[a].bounds.min, self.nodes[a].bounds.max, t_best);
                 let tb = ray.slab(self.nodes[b].bounds.min, self.nodes[b].bounds.max, t_best);
-                match (ta, tb) {
+                let next = match (ta, tb) {
                     (Some(ta), Some(tb)) => {
-                        let (near, far) = if ta <= tb { (a, b) } else { (b, a) };
+                        let (near, far, t_far) = if ta <= tb { (a, b, tb) } else { (b, a, ta) };
                         if depth < stack.len() {
-                            stack[depth] = far as u32;
+                            stack[depth] = (far as u32, t_far);
                             depth += 1;
                         }
-                        node = &self.nodes[near];
-                        continue;
+                        Some(near)
                     }
-                    (Some(_), None) => {
-                        node = &self.nodes[a];
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = &self.nodes[b];
-                        continue;
-                    }
-                    (None, None) => {}
+                    (Some(_), None) => Some(a),
+                    (None, Some(_)) => Some(b),
+                    (None, None) => None,
+                };
+                if let Some(next) = next {
+                    node = &self.nodes[next];
+                    continue;
                 }
             }
-            // Pop the next subtree that can still hold a closer hit.
+            // Pop the next subtree the ray enters before the closest hit so far.
             loop {
                 if depth == 0 {
                     return best;
                 }
                 depth -= 1;
-                let candidate = &self.nodes[stack[depth] as usize];
-                if ray.slab(candidate.bounds.min, candidate.bounds.max, t_best).is_some() {
-                    node = candidate;
+                let (index, t_entry) = stack[depth];
+                if t_entry <= t_best {
+                    node = &self.nodes[index as usize];
                     break;
                 }
             }

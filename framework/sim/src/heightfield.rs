@@ -117,7 +117,70 @@ impl HeightField {
     }
 
     /// Closest hit along `ray` before `t_max`: distance and the triangle hit.
+    ///
+    /// Maximum-mipmap traversal: walk the ray across the nodes of the current level in x/y order; a node
+    /// whose highest point lies below the ray over the node's stretch of the ray is skipped whole (and
+    /// the walk climbs a level when it leaves the parent), otherwise the walk descends; at the finest
+    /// level the cell's two triangles are tested, and the first cell with a hit holds the closest hit.
     pub fn cast(&self, ray: &Ray, t_max: f32) -> Option<(f32, Tri)> {
+        let size_m = self.cell_m * self.cells as f32;
+        let (x0, y0) = (self.origin_x_m, self.origin_y_m);
+        let clip = |o: f32, inv: f32, low: f32| {
+            let (a, b) = ((low - o) * inv, (low + size_m - o) * inv);
+            (a.min(b), a.max(b))
+        };
+        let (ax, bx) = clip(ray.origin.x, ray.inv_dir.x, x0);
+        let (ay, by) = clip(ray.origin.y, ray.inv_dir.y, y0);
+        let mut t = ax.max(ay).max(0.0);
+        let t_end = bx.min(by).min(t_max);
+        let top = self.levels.len() - 1;
+        // Start a few levels up: sensors sit just above the ground, so the coarse nodes around the
+        // origin always need descending; climbing on the way out restores the large skips.
+        let mut level = top.min(3);
+        const NUDGE: f32 = 1e-4;
+        while t < t_end {
+            let size = self.cell_m * (1u32 << level) as f32;
+            let inv_size = 1.0 / size;
+            let per_row = self.cells >> level;
+            let p = ray.at(t + NUDGE);
+            let i = (((p.x - x0) * inv_size).max(0.0) as usize).min(per_row - 1);
+            let j = (((p.y - y0) * inv_size).max(0.0) as usize).min(per_row - 1);
+            let next_x = x0 + if ray.dir.x >= 0.0 { (i + 1) as f32 } else { i as f32 } * size;
+            let next_y = y0 + if ray.dir.y >= 0.0 { (j + 1) as f32 } else { j as f32 } * size;
+            let tx = (next_x - ray.origin.x) * ray.inv_dir.x;
+            let ty = (next_y - ray.origin.y) * ray.inv_dir.y;
+            let t_exit = tx.min(ty).min(t_end).max(t + NUDGE);
+            let z_max = self.levels[level][j * per_row + i][1];
+            let (z_in, z_out) = (ray.origin.z + ray.dir.z * t, ray.origin.z + ray.dir.z * t_exit);
+            if z_in.min(z_out) > z_max {
+                // Leave the node; climb when the step also leaves the parent node.
+                let crossing_x = tx <= ty;
+                let (index, forward) = if crossing_x { (i, ray.dir.x >= 0.0) } else { (j, ray.dir.y >= 0.0) };
+                let next = if forward { index + 1 } else { index.wrapping_sub(1) };
+                if level < top && next >> 1 != index >> 1 {
+                    level += 1;
+                }
+                t = t_exit;
+            } else if level > 0 {
+                level -= 1;
+            } else {
+                let mut best: Option<(f32, Tri)> = None;
+                for tri in self.cell_triangles(i, j) {
+                    if let Some(hit) = tri.intersect(ray, best.map_or(t_max, |b| b.0)) {
+                        best = Some((hit, tri));
+                    }
+                }
+                if best.is_some() {
+                    return best;
+                }
+                t = t_exit;
+            }
+        }
+        None
+    }
+
+    /// Closest hit by a plain stack traversal of the quadtree (the reference for tests).
+    pub fn cast_reference(&self, ray: &Ray, t_max: f32) -> Option<(f32, Tri)> {
         let mut best: Option<(f32, Tri)> = None;
         let mut t_best = t_max;
         let top = self.levels.len() - 1;
@@ -197,6 +260,8 @@ mod tests {
                 }
             }
             let fast = field.cast(&ray, 200.0).map_or(f32::INFINITY, |h| h.0);
+            let reference = field.cast_reference(&ray, 200.0).map_or(f32::INFINITY, |h| h.0);
+            assert_eq!(brute, reference);
             assert_eq!(brute, fast);
             if fast.is_finite() {
                 let p = ray.at(fast);

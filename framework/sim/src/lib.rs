@@ -20,3 +20,18 @@ pub mod world;
 
 pub use error::SimError;
 pub use world::{Hit, Material, RoadGraph, World, WorldKind};
+pub mod imu;
+pub mod motion;
+pub mod route;
+pub mod scan;
+pub mod sensor;
+mod source;
+pub mod trajectory;
+
+pub use imu::{ImuNoise, ImuSimulator};
+pub use motion::{MotionSpec, Profile};
+pub use route::{Overlap, Route, plan_route};
+pub use scan::{ScanNoise, simulate_sweep};
+pub use sensor::{SENSOR_NAMES, Sensor};
+pub use source::{MAX_ROBOTS, SimConfig, SimSource, register};
+pub use trajectory::Trajectory;

@@ -101,7 +101,7 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
         let boulder = placed < 40;
         let radius_m = if boulder { rng.range(2.0, 4.5) } else { rng.power_law(0.15, 2.0, 2.6) };
         let (x, y) = (rng.range(-HALF_M + 5.0, HALF_M - 5.0), rng.range(-HALF_M + 5.0, HALF_M - 5.0));
-        if lane_distance(x, y) < radius_m + 2.5 {
+        if lane_distance(x, y) < radius_m + 3.5 {
             continue;
         }
         let ground = terrain.height_at(x, y);

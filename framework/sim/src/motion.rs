@@ -1,0 +1,187 @@
+//! From a route's centre line to a smooth, physically plausible trajectory.
+//!
+//! Ground robots: the centre line is smoothed (corners become arcs of a few metres' radius), the speed
+//! is limited by lateral acceleration in turns and by longitudinal acceleration at the ends (a
+//! trapezoid-like profile), and the body follows the ground: height from a downward ray, roll and pitch
+//! from four contact points about the footprint, low-pass filtered like a suspension. Aerial robots
+//! hold an altitude above the ground (10 m outdoors, 2.2 m in caves), bank into turns (coordinated turn,
+//! bank = atan(v·ψ̇ / g)) and pitch with acceleration.
+
+use nalgebra::{Translation3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+use skid_core::Pose;
+
+use crate::route::Route;
+use crate::trajectory::Trajectory;
+use crate::world::{World, WorldKind};
+
+/// Gravity used by motion and IMU models.
+pub const GRAVITY_MPS2: f64 = 9.80665;
+/// Spacing of the trajectory's control poses.
+pub const CONTROL_DT_S: f64 = 0.1;
+
+/// Ground vehicle or multirotor.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Profile {
+    #[default]
+    Ground,
+    Aerial,
+}
+
+/// Motion parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct MotionSpec {
+    pub speed_mps: f64,
+    pub profile: Profile,
+    /// Sensor height above the ground contact (ground robots).
+    pub mount_height_m: f64,
+    /// Standing time before the robot starts and after it stops.
+    pub still_s: f64,
+}
+
+impl Default for MotionSpec {
+    fn default() -> Self {
+        Self { speed_mps: 1.0, profile: Profile::Ground, mount_height_m: 0.8, still_s: 1.0 }
+    }
+}
+
+fn resample(line: &[[f64; 3]], spacing_m: f64) -> Vec<[f64; 3]> {
+    let mut out = vec![line[0]];
+    let mut carry = 0.0;
+    for w in line.windows(2) {
+        let length = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt();
+        let mut s = spacing_m - carry;
+        while s <= length {
+            let t = s / length;
+            out.push(std::array::from_fn(|k| w[0][k] + (w[1][k] - w[0][k]) * t));
+            s += spacing_m;
+        }
+        carry = length - (s - spacing_m);
+    }
+    if let Some(&last) = line.last() {
+        out.push(last);
+    }
+    out
+}
+
+fn moving_average(points: &[[f64; 3]], half_window: usize) -> Vec<[f64; 3]> {
+    (0..points.len())
+        .map(|i| {
+            let w = half_window.min(i).min(points.len() - 1 - i);
+            let slice = &points[i - w..=i + w];
+            std::array::from_fn(|k| slice.iter().map(|p| p[k]).sum::<f64>() / slice.len() as f64)
+        })
+        .collect()
+}
+
+fn smooth_scalar(values: &[f64], half_window: usize) -> Vec<f64> {
+    (0..values.len())
+        .map(|i| {
+            let (lo, hi) = (i.saturating_sub(half_window), (i + half_window).min(values.len() - 1));
+            values[lo..=hi].iter().sum::<f64>() / (hi - lo + 1) as f64
+        })
+        .collect()
+}
+
+fn wrap_pi(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+/// The trajectory of the body (= sensor) frame along `route`, starting at t = 0.
+pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory {
+    let ds = 0.25;
+    let coarse = resample(&route.centre_line, 1.0);
+    let smooth = moving_average(&moving_average(&coarse, 5), 5);
+    let path = resample(&smooth, ds);
+    let n = path.len();
+    let mut heading: Vec<f64> = (0..n)
+        .map(|i| {
+            let (a, b) = (path[i.saturating_sub(1)], path[(i + 1).min(n - 1)]);
+            (b[1] - a[1]).atan2(b[0] - a[0])
+        })
+        .collect();
+    for i in 1..n {
+        heading[i] = heading[i - 1] + wrap_pi(heading[i] - heading[i - 1]);
+    }
+    let curvature = smooth_scalar(&(0..n).map(|i| (heading[(i + 1).min(n - 1)] - heading[i]).abs() / ds).collect::<Vec<_>>(), 8);
+    let (lateral_mps2, longitudinal_mps2) = match spec.profile {
+        Profile::Ground => (0.4, 0.3),
+        Profile::Aerial => (1.5, 0.8),
+    };
+    let mut speed: Vec<f64> = curvature.iter().map(|k| spec.speed_mps.min((lateral_mps2 / k.max(1e-9)).sqrt())).collect();
+    speed[0] = 0.0;
+    speed[n - 1] = 0.0;
+    for i in 1..n {
+        speed[i] = speed[i].min((speed[i - 1].powi(2) + 2.0 * longitudinal_mps2 * ds).sqrt());
+    }
+    for i in (0..n - 1).rev() {
+        speed[i] = speed[i].min((speed[i + 1].powi(2) + 2.0 * longitudinal_mps2 * ds).sqrt());
+    }
+    let mut times = vec![spec.still_s; n];
+    for i in 1..n {
+        times[i] = times[i - 1] + 2.0 * ds / (speed[i - 1] + speed[i]).max(0.02);
+    }
+    let end_s = times[n - 1] + spec.still_s;
+    let count = (end_s / CONTROL_DT_S).ceil() as usize + 1;
+
+    // Sample the path at every control time.
+    let mut samples = Vec::with_capacity(count);
+    let mut cursor = 0;
+    for k in 0..count {
+        let t = k as f64 * CONTROL_DT_S;
+        while cursor + 1 < n - 1 && times[cursor + 1] <= t {
+            cursor += 1;
+        }
+        let (i, j) = (cursor, (cursor + 1).min(n - 1));
+        let f = if times[j] > times[i] { ((t - times[i]) / (times[j] - times[i])).clamp(0.0, 1.0) } else { 0.0 };
+        let p: [f64; 3] = std::array::from_fn(|c| path[i][c] + (path[j][c] - path[i][c]) * f);
+        let yaw = heading[i] + (heading[j] - heading[i]) * f;
+        let v = speed[i] + (speed[j] - speed[i]) * f;
+        samples.push((p, yaw, v));
+    }
+    let ground = |x: f64, y: f64, z_reference: f64| {
+        world.ground_below(x, y, z_reference + 0.5, 30.0).or_else(|| world.terrain_height(x, y)).unwrap_or(z_reference - 1.6)
+    };
+    let (mut z, mut roll, mut pitch) = (Vec::with_capacity(count), Vec::with_capacity(count), Vec::with_capacity(count));
+    for &(p, yaw, _) in &samples {
+        let (c, s) = (yaw.cos(), yaw.sin());
+        let at = |forward: f64, left: f64| ground(p[0] + c * forward - s * left, p[1] + s * forward + c * left, p[2]);
+        let (front, back, left, right) = (at(0.5, 0.0), at(-0.5, 0.0), at(0.0, 0.4), at(0.0, -0.4));
+        z.push(ground(p[0], p[1], p[2]).max((front + back + left + right) / 4.0));
+        pitch.push((back - front).atan2(1.0));
+        roll.push((left - right).atan2(0.8));
+    }
+    let (z, roll, pitch) = match spec.profile {
+        Profile::Ground => {
+            let z: Vec<f64> = smooth_scalar(&z, 2).iter().map(|g| g + spec.mount_height_m).collect();
+            (z, smooth_scalar(&roll, 2), smooth_scalar(&pitch, 2))
+        }
+        Profile::Aerial => {
+            let altitude = if world.kind() == WorldKind::Cave { 2.2 } else { 10.0 };
+            let z: Vec<f64> = smooth_scalar(&z, 15).iter().map(|g| g + altitude).collect();
+            let bank: Vec<f64> = (0..count)
+                .map(|k| {
+                    let (a, b) = (samples[k.saturating_sub(1)], samples[(k + 1).min(count - 1)]);
+                    let yaw_rate = (b.1 - a.1) / (2.0 * CONTROL_DT_S);
+                    (samples[k].2 * yaw_rate / GRAVITY_MPS2).atan()
+                })
+                .collect();
+            let tilt: Vec<f64> = (0..count)
+                .map(|k| {
+                    let (a, b) = (samples[k.saturating_sub(1)].2, samples[(k + 1).min(count - 1)].2);
+                    ((b - a) / (2.0 * CONTROL_DT_S) / GRAVITY_MPS2).atan()
+                })
+                .collect();
+            (z, smooth_scalar(&bank, 3), smooth_scalar(&tilt, 3))
+        }
+    };
+    let controls = (0..count)
+        .map(|k| {
+            let (p, yaw, _) = samples[k];
+            let rotation = UnitQuaternion::from_euler_angles(roll[k], pitch[k], yaw);
+            Pose::from_parts(Translation3::from(Vector3::new(p[0], p[1], z[k])), rotation)
+        })
+        .collect();
+    Trajectory::new(0.0, CONTROL_DT_S, controls)
+}

@@ -1,0 +1,238 @@
+//! The `sim` source: a robot driving its route through a generated world, producing scans with
+//! per-point time offsets, IMU samples and exact ground truth, as a [`skid_core::slots::Source`] and as
+//! a plain iterator.
+
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+use skid_core::slots::Source;
+use skid_core::{PluginContext, PluginEntry, PluginError, PluginResult, Registry, RobotId, Scan};
+
+use crate::imu::{ImuNoise, ImuSimulator};
+use crate::motion::{MotionSpec, Profile, trajectory};
+use crate::rng::combine;
+use crate::route::{Route, plan_route};
+use crate::scan::{ScanNoise, simulate_sweep};
+use crate::sensor::{SWEEP_PERIOD_S, Sensor};
+use crate::trajectory::Trajectory;
+use crate::world::{World, WorldKind};
+use crate::SimError;
+
+/// Largest fleet the simulator plans routes for.
+pub const MAX_ROBOTS: u32 = 16;
+
+/// Parameters of the `sim` source (`[source.sim]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    /// `planetary`, `cave` or `urban`.
+    pub world: String,
+    /// Seeds the world, the routes and every noise stream.
+    pub seed: u64,
+    /// `vlp16`, `os1-32`, `os1-64`, `hdl64e` or `avia`.
+    pub sensor: String,
+    /// Fleet size, 1 to 16; the robot index comes from the plugin context.
+    pub robots: u32,
+    /// Scans to produce; 0 = until the end of the route.
+    pub frames: u32,
+    /// Approximate route length.
+    pub route_length_m: f64,
+    /// Cruise speed (ground robots typically 0.5–2 m/s).
+    pub speed_mps: f64,
+    /// `ground` or `aerial`.
+    pub profile: Profile,
+    /// Multiplies the sensor's range noise σ (0 = exact ranges).
+    pub range_noise_scale: f64,
+    /// Probability that a return is lost.
+    pub dropout_rate: f64,
+    /// Probability that a return is replaced by a spurious one (dust, multipath reflection).
+    pub spurious_rate: f64,
+    /// Attach IMU samples to scans.
+    pub imu: bool,
+    /// IMU noise; the IMU is ideal when `imu_noise` is false.
+    pub imu_noise: bool,
+    pub imu_model: ImuNoise,
+    /// Threads for ray casting; 0 = the plugin context's budget.
+    pub threads: usize,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            world: "planetary".to_owned(),
+            seed: 7,
+            sensor: "os1-64".to_owned(),
+            robots: 3,
+            frames: 0,
+            route_length_m: 600.0,
+            speed_mps: 1.0,
+            profile: Profile::Ground,
+            range_noise_scale: 1.0,
+            dropout_rate: 0.01,
+            spurious_rate: 0.0005,
+            imu: true,
+            imu_noise: true,
+            imu_model: ImuNoise::default(),
+            threads: 0,
+        }
+    }
+}
+
+impl SimConfig {
+    /// Checks every value, naming the first bad one.
+    pub fn validate(&self) -> Result<(WorldKind, Sensor), SimError> {
+        let kind: WorldKind = self.world.parse()?;
+        let sensor = Sensor::by_name(&self.sensor)?;
+        if self.robots == 0 || self.robots > MAX_ROBOTS {
+            return Err(SimError::RobotCount { robots: self.robots, max: MAX_ROBOTS });
+        }
+        let check = |ok: bool, what: String| if ok { Ok(()) } else { Err(SimError::InvalidConfig(what)) };
+        check((0.1..=20.0).contains(&self.speed_mps), format!("speed_mps = {} must be within 0.1–20 m/s", self.speed_mps))?;
+        check((50.0..=5000.0).contains(&self.route_length_m), format!("route_length_m = {} must be within 50–5000 m", self.route_length_m))?;
+        check(self.range_noise_scale >= 0.0 && self.range_noise_scale.is_finite(), format!("range_noise_scale = {} must be ≥ 0", self.range_noise_scale))?;
+        for (name, rate) in [("dropout_rate", self.dropout_rate), ("spurious_rate", self.spurious_rate)] {
+            check((0.0..=1.0).contains(&rate), format!("{name} = {rate} must be within 0–1"))?;
+        }
+        check(self.imu_model.rate_hz >= 10.0 && self.imu_model.rate_hz <= 2000.0, format!("imu_model.rate_hz = {} must be within 10–2000", self.imu_model.rate_hz))?;
+        Ok((kind, sensor))
+    }
+
+    /// The scan degradations.
+    pub fn scan_noise(&self) -> ScanNoise {
+        ScanNoise { range_noise_scale: self.range_noise_scale, dropout_rate: self.dropout_rate, spurious_rate: self.spurious_rate }
+    }
+
+    /// The motion parameters.
+    pub fn motion(&self) -> MotionSpec {
+        MotionSpec { speed_mps: self.speed_mps, profile: self.profile, ..MotionSpec::default() }
+    }
+}
+
+/// One simulated robot.
+pub struct SimSource {
+    world: Arc<World>,
+    sensor: Sensor,
+    route: Route,
+    trajectory: Arc<Trajectory>,
+    robot: RobotId,
+    noise: ScanNoise,
+    imu: Option<ImuSimulator>,
+    key: u64,
+    next_sequence: u32,
+    scan_count: u32,
+    pool: Option<rayon::ThreadPool>,
+}
+
+impl std::fmt::Debug for SimSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimSource").field("robot", &self.robot).field("sensor", &self.sensor.name).field("next_sequence", &self.next_sequence).finish()
+    }
+}
+
+impl SimSource {
+    /// Robot `robot` of the fleet described by `config`, casting rays on `threads` threads.
+    pub fn new(config: &SimConfig, robot: u32, threads: usize) -> Result<Self, SimError> {
+        let (kind, sensor) = config.validate()?;
+        if robot >= config.robots {
+            return Err(SimError::RobotIndex { index: robot, robots: config.robots });
+        }
+        let world = World::shared(kind, config.seed);
+        let route = plan_route(&world, config.seed, robot, config.route_length_m);
+        let trajectory = Arc::new(trajectory(&world, &route, &config.motion()));
+        // The last sweep must end before the trajectory does.
+        let available = ((trajectory.end_s() - SWEEP_PERIOD_S) / SWEEP_PERIOD_S).floor().max(0.0) as u32;
+        let scan_count = if config.frames == 0 { available } else { config.frames.min(available) };
+        let key = combine(combine(config.seed, 0x5ca1), u64::from(robot));
+        let imu = config.imu.then(|| ImuSimulator::new(config.imu_noise.then_some(config.imu_model), combine(key, 1)));
+        let pool = if threads > 1 {
+            Some(rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| SimError::InvalidConfig(format!("thread pool: {e}")))?)
+        } else {
+            None
+        };
+        Ok(Self { world, sensor, route, trajectory, robot: RobotId(robot), noise: config.scan_noise(), imu, key, next_sequence: 0, scan_count, pool })
+    }
+
+    pub fn world(&self) -> &Arc<World> {
+        &self.world
+    }
+
+    pub fn sensor(&self) -> &Sensor {
+        &self.sensor
+    }
+
+    pub fn route(&self) -> &Route {
+        &self.route
+    }
+
+    /// The ground-truth trajectory of the sensor frame.
+    pub fn trajectory(&self) -> &Arc<Trajectory> {
+        &self.trajectory
+    }
+
+    /// Scans this source produces in total.
+    pub fn scan_count(&self) -> u32 {
+        self.scan_count
+    }
+
+    /// Stamp of scan `sequence`.
+    pub fn stamp_nanos(sequence: u32) -> u64 {
+        u64::from(sequence) * (SWEEP_PERIOD_S * 1e9) as u64
+    }
+
+    /// The next scan, or `None` at the end of the route.
+    pub fn next_sim_scan(&mut self) -> Option<Scan> {
+        if self.next_sequence >= self.scan_count {
+            return None;
+        }
+        let sequence = self.next_sequence;
+        self.next_sequence += 1;
+        let stamp_nanos = Self::stamp_nanos(sequence);
+        let sweep_start_s = stamp_nanos as f64 * 1e-9;
+        let trajectory = Arc::clone(&self.trajectory);
+        let poses = move |t: f64| trajectory.pose_at(t);
+        let key = combine(self.key, u64::from(sequence) + 2);
+        let points = match &self.pool {
+            Some(pool) => pool.install(|| simulate_sweep(&self.world, &self.sensor, &poses, sweep_start_s, &self.noise, key, true)),
+            None => simulate_sweep(&self.world, &self.sensor, &poses, sweep_start_s, &self.noise, key, false),
+        };
+        let imu = self.imu.as_mut().map(|imu| imu.samples_until(&self.trajectory, stamp_nanos)).unwrap_or_default();
+        Some(Scan {
+            robot: self.robot,
+            sequence,
+            stamp_nanos,
+            points,
+            imu,
+            ground_truth_world_from_sensor: Some(self.trajectory.pose_at(sweep_start_s)),
+        })
+    }
+}
+
+impl Iterator for SimSource {
+    type Item = Scan;
+
+    fn next(&mut self) -> Option<Scan> {
+        self.next_sim_scan()
+    }
+}
+
+impl Source for SimSource {
+    fn next_scan(&mut self) -> PluginResult<Option<Scan>> {
+        Ok(self.next_sim_scan())
+    }
+
+    fn remaining_hint(&self) -> Option<usize> {
+        Some((self.scan_count - self.next_sequence) as usize)
+    }
+}
+
+/// Adds the `sim` source to `registry`.
+pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
+    registry.source.register(PluginEntry::new(
+        "sim",
+        "Built-in LiDAR simulator: planetary/cave/urban worlds, VLP-16/OS1/HDL-64E/Avia, IMU and ground truth",
+        |config: SimConfig, context: &PluginContext| {
+            let threads = if config.threads == 0 { context.threads.max(1) } else { config.threads };
+            Ok(Box::new(SimSource::new(&config, context.robot.0, threads)?) as Box<dyn Source>)
+        },
+    )?)
+}
