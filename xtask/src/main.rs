@@ -54,7 +54,9 @@ fn cargo() -> Command {
 
 fn run(mut command: Command) -> Result<()> {
     eprintln!("xtask: running {command:?}");
-    let status = command.status().with_context(|| format!("starting {command:?}"))?;
+    let status = command
+        .status()
+        .with_context(|| format!("starting {command:?}"))?;
     if !status.success() {
         bail!("{command:?} failed with {status}");
     }
@@ -96,11 +98,22 @@ fn bench(profile: &str, args: &[String]) -> Result<()> {
     }
     let Some(entry) = profiles.iter().find(|entry| entry.name == profile) else {
         let names: Vec<_> = profiles.iter().map(|entry| entry.name).collect();
-        bail!("unknown bench profile `{profile}`; profiles: {}", names.join(", "));
+        bail!(
+            "unknown bench profile `{profile}`; profiles: {}",
+            names.join(", ")
+        );
     };
     let out = xtask::workspace_root().join("target/bench").join(profile);
     let mut command = cargo();
-    command.args(["run", "--release", "--package", entry.package, "--bin", entry.binary, "--"]);
+    command.args([
+        "run",
+        "--release",
+        "--package",
+        entry.package,
+        "--bin",
+        entry.binary,
+        "--",
+    ]);
     command.arg("--out").arg(&out).args(args);
     run(command)
 }

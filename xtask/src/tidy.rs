@@ -41,7 +41,10 @@ pub fn check(root: &Path) -> Result<Vec<Violation>> {
 fn collect(dir: &Path, files: &mut Vec<PathBuf>) -> Result<()> {
     for entry in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
         let path = entry?.path();
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
         if path.is_dir() {
             if name != "target" && !name.starts_with('.') {
                 collect(&path, files)?;
@@ -55,21 +58,37 @@ fn collect(dir: &Path, files: &mut Vec<PathBuf>) -> Result<()> {
 
 /// True for files where `unwrap` is allowed: tests, benches, examples, build scripts and xtask itself.
 fn is_test_or_tool(path: &Path) -> bool {
-    path.components().any(|c| matches!(c.as_os_str().to_str(), Some("tests" | "benches" | "examples" | "xtask")))
-        || path.file_name().is_some_and(|name| name == "build.rs" || name == "tests.rs")
+    path.components().any(|c| {
+        matches!(
+            c.as_os_str().to_str(),
+            Some("tests" | "benches" | "examples" | "xtask")
+        )
+    }) || path
+        .file_name()
+        .is_some_and(|name| name == "build.rs" || name == "tests.rs")
 }
 
 /// The rules for one file's text.
 pub fn check_file(path: &Path, text: &str) -> Vec<Violation> {
     let mut violations = Vec::new();
-    let violation = |line, rule| Violation { path: path.to_owned(), line, rule };
+    let violation = |line, rule| Violation {
+        path: path.to_owned(),
+        line,
+        rule,
+    };
     let first = text.lines().find(|line| !line.trim().is_empty()).unwrap_or("");
     if !first.starts_with("//!") {
-        violations.push(violation(1, "file must start with a `//!` doc saying what it is for"));
+        violations.push(violation(
+            1,
+            "file must start with a `//!` doc saying what it is for",
+        ));
     }
     let lines = text.lines().count();
     if lines > MAX_LINES {
-        violations.push(violation(lines, "file is over 800 lines; split it by responsibility"));
+        violations.push(violation(
+            lines,
+            "file is over 800 lines; split it by responsibility",
+        ));
     }
     if !is_test_or_tool(path) {
         for (index, line) in text.lines().enumerate() {
@@ -78,7 +97,10 @@ pub fn check_file(path: &Path, text: &str) -> Vec<Violation> {
             }
             let code = line.split("//").next().unwrap_or("");
             if code.contains(".unwrap()") {
-                violations.push(violation(index + 1, "`unwrap()` in library code; return an error instead"));
+                violations.push(violation(
+                    index + 1,
+                    "`unwrap()` in library code; return an error instead",
+                ));
             }
         }
     }
@@ -95,10 +117,19 @@ mod tests {
         assert_eq!(check_file(path, "//! Doc.\nfn f() {}\n"), vec![]);
         let missing_doc = check_file(path, "fn f() {}\n");
         assert_eq!(missing_doc.len(), 1);
-        let unwrap = check_file(path, "//! Doc.\nfn f() { x.unwrap(); }\n#[cfg(test)]\nmod t { fn g() { y.unwrap(); } }\n");
+        let unwrap = check_file(
+            path,
+            "//! Doc.\nfn f() { x.unwrap(); }\n#[cfg(test)]\nmod t { fn g() { y.unwrap(); } }\n",
+        );
         assert_eq!(unwrap.len(), 1);
         assert_eq!(unwrap[0].line, 2);
-        assert!(check_file(Path::new("framework/x/tests/a.rs"), "//! Doc.\nfn f() { x.unwrap(); }\n").is_empty());
+        assert!(
+            check_file(
+                Path::new("framework/x/tests/a.rs"),
+                "//! Doc.\nfn f() { x.unwrap(); }\n"
+            )
+            .is_empty()
+        );
         let long = format!("//! Doc.\n{}", "\n".repeat(MAX_LINES + 1));
         assert_eq!(check_file(path, &long).len(), 1);
     }

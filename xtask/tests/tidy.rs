@@ -1,5 +1,7 @@
 //! The house rules hold for the whole workspace (the same check as `cargo xtask tidy`).
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test helpers fail loudly by design.
+
 #[test]
 fn workspace_is_tidy() {
     let violations = xtask::tidy::check(&xtask::workspace_root()).unwrap();

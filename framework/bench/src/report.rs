@@ -31,7 +31,11 @@ impl Report {
         machine.insert("cores".into(), Value::from(cores));
         machine.insert("os".into(), Value::from(std::env::consts::OS));
         machine.insert("arch".into(), Value::from(std::env::consts::ARCH));
-        Self { profile: profile.to_owned(), machine, rows: Vec::new() }
+        Self {
+            profile: profile.to_owned(),
+            machine,
+            rows: Vec::new(),
+        }
     }
 
     /// Adds a row from any serialisable struct (its fields become the columns).
@@ -45,11 +49,21 @@ impl Report {
 
     /// The rows as a Markdown table, columns in the first row's order.
     pub fn markdown(&self) -> String {
-        let Some(first) = self.rows.first() else { return format!("# {}\n\n(no rows)\n", self.profile) };
+        let Some(first) = self.rows.first() else {
+            return format!("# {}\n\n(no rows)\n", self.profile);
+        };
         let columns: Vec<&String> = first.keys().collect();
-        let mut text = format!("# {}\n\n| {} |\n|{}\n", self.profile, columns.iter().map(|c| c.as_str()).collect::<Vec<_>>().join(" | "), "---|".repeat(columns.len()));
+        let mut text = format!(
+            "# {}\n\n| {} |\n|{}\n",
+            self.profile,
+            columns.iter().map(|c| c.as_str()).collect::<Vec<_>>().join(" | "),
+            "---|".repeat(columns.len())
+        );
         for row in &self.rows {
-            let cells: Vec<String> = columns.iter().map(|c| row.get(c.as_str()).map(format_cell).unwrap_or_default()).collect();
+            let cells: Vec<String> = columns
+                .iter()
+                .map(|c| row.get(c.as_str()).map(format_cell).unwrap_or_default())
+                .collect();
             text.push_str(&format!("| {} |\n", cells.join(" | ")));
         }
         text
@@ -59,7 +73,8 @@ impl Report {
     pub fn write(&self, out: &std::path::Path) -> Result<()> {
         std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
         let json_path = out.join("results.json");
-        std::fs::write(&json_path, serde_json::to_string_pretty(self)?).with_context(|| format!("writing {}", json_path.display()))?;
+        std::fs::write(&json_path, serde_json::to_string_pretty(self)?)
+            .with_context(|| format!("writing {}", json_path.display()))?;
         let table = self.markdown();
         let md_path = out.join("table.md");
         std::fs::write(&md_path, &table).with_context(|| format!("writing {}", md_path.display()))?;

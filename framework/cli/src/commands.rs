@@ -63,7 +63,10 @@ pub fn plugins(registry: &Registry, slot: Option<&str>, json: bool) -> Result<()
     let slots: Vec<Slot> = match slot {
         Some(key) => match Slot::from_key(key) {
             Some(slot) => vec![slot],
-            None => bail!("unknown slot `{key}`; slots: {}", Slot::ALL.map(Slot::key).join(", ")),
+            None => bail!(
+                "unknown slot `{key}`; slots: {}",
+                Slot::ALL.map(Slot::key).join(", ")
+            ),
         },
         None => Slot::ALL.to_vec(),
     };
@@ -118,7 +121,12 @@ pub fn config_show(registry: &Registry, profile: Option<String>, layers: &LayerA
 }
 
 /// `skid config check FILE`.
-pub fn config_check(registry: &Registry, file: &Path, profile: Option<String>, layers: &LayerArgs) -> Result<()> {
+pub fn config_check(
+    registry: &Registry,
+    file: &Path,
+    profile: Option<String>,
+    layers: &LayerArgs,
+) -> Result<()> {
     let mut sources = sources(profile, layers);
     sources.overlays.insert(0, file.to_owned());
     load(&sources, registry)?;

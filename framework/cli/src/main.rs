@@ -15,7 +15,11 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "skid", version, about = "SKiD: robust, lightweight, distributed multi-robot LiDAR SLAM")]
+#[command(
+    name = "skid",
+    version,
+    about = "SKiD: robust, lightweight, distributed multi-robot LiDAR SLAM"
+)]
 struct Cli {
     /// More log output (-v debug, -vv trace).
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
@@ -25,7 +29,13 @@ struct Cli {
     quiet: bool,
     /// Load an out-of-tree plugin library (a cdylib built with `skid-abi`); repeatable. Also read from
     /// `SKID_PLUGIN_LIBS` (paths separated by `:`).
-    #[arg(long = "plugin-lib", value_name = "PATH", global = true, env = "SKID_PLUGIN_LIBS", value_delimiter = ':')]
+    #[arg(
+        long = "plugin-lib",
+        value_name = "PATH",
+        global = true,
+        env = "SKID_PLUGIN_LIBS",
+        value_delimiter = ':'
+    )]
     plugin_libs: Vec<PathBuf>,
     #[command(subcommand)]
     command: Command,
@@ -95,10 +105,14 @@ fn main() -> ExitCode {
     let result = commands::registry(&cli.plugin_libs).and_then(|registry| match cli.command {
         Command::Run { profile, layers } => commands::run(&registry, profile, &layers),
         Command::Plugins { slot, json } => commands::plugins(&registry, slot.as_deref(), json),
-        Command::Config(ConfigCommand::Show { profile, layers }) => commands::config_show(&registry, profile, &layers),
-        Command::Config(ConfigCommand::Check { file, profile, layers }) => {
-            commands::config_check(&registry, &file, profile, &layers)
+        Command::Config(ConfigCommand::Show { profile, layers }) => {
+            commands::config_show(&registry, profile, &layers)
         }
+        Command::Config(ConfigCommand::Check {
+            file,
+            profile,
+            layers,
+        }) => commands::config_check(&registry, &file, profile, &layers),
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,6 +1,8 @@
 //! The `skid` binary end to end: plugin listing, configuration display and checking (including
 //! environment overrides set on the child process), and a short run on the real KITTI excerpt.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test helpers fail loudly by design.
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -26,7 +28,15 @@ fn plugins_lists_every_slot_with_defaults() {
     let output = skid(&["plugins"], &[]);
     assert!(output.status.success());
     let stdout = text(&output.stdout);
-    for expected in ["[source]", "kitti", "cloud_dir", "[odometry]", "ground_truth", "translation_noise_m = 0.0", "[transport]"] {
+    for expected in [
+        "[source]",
+        "kitti",
+        "cloud_dir",
+        "[odometry]",
+        "ground_truth",
+        "translation_noise_m = 0.0",
+        "[transport]",
+    ] {
         assert!(stdout.contains(expected), "missing {expected} in:\n{stdout}");
     }
     let json = skid(&["plugins", "--json", "--slot", "odometry"], &[]);
@@ -40,7 +50,10 @@ fn plugins_lists_every_slot_with_defaults() {
 
 #[test]
 fn config_show_prints_the_merged_default_as_toml() {
-    let output = skid(&["config", "show", "--set", "run.robots=2"], &[("SKID_RUN__SEED", "99")]);
+    let output = skid(
+        &["config", "show", "--set", "run.robots=2"],
+        &[("SKID_RUN__SEED", "99")],
+    );
     assert!(output.status.success(), "{}", text(&output.stderr));
     let shown: toml::Table = text(&output.stdout).parse().unwrap();
     assert_eq!(shown["run"]["robots"].as_integer(), Some(2));
@@ -56,7 +69,10 @@ fn config_check_reports_file_key_and_expected_keys() {
     assert!(!output.status.success());
     let stderr = text(&output.stderr);
     assert!(stderr.contains("typo_key.toml"), "{stderr}");
-    assert!(stderr.contains("odometry.ground_truth.translation_noize_m"), "{stderr}");
+    assert!(
+        stderr.contains("odometry.ground_truth.translation_noize_m"),
+        "{stderr}"
+    );
     assert!(stderr.contains("translation_noise_m"), "{stderr}");
     let good = skid(&["config", "check", "configs/default.toml"], &[]);
     assert!(good.status.success(), "{}", text(&good.stderr));
@@ -67,14 +83,29 @@ fn a_bad_environment_variable_is_named() {
     let output = skid(&["config", "show"], &[("SKID_RUN__ROBOTZ", "2")]);
     assert!(!output.status.success());
     let stderr = text(&output.stderr);
-    assert!(stderr.contains("SKID_RUN__ROBOTZ") && stderr.contains("robots"), "{stderr}");
+    assert!(
+        stderr.contains("SKID_RUN__ROBOTZ") && stderr.contains("robots"),
+        "{stderr}"
+    );
 }
 
 #[test]
 fn run_writes_trajectories_and_a_summary() {
     let out = tempfile::tempdir().unwrap();
     let out_arg = format!("run.output_dir={}", out.path().display());
-    let output = skid(&["-q", "run", "--set", &out_arg, "--set", "run.robots=2", "--set", "run.name=e2e"], &[]);
+    let output = skid(
+        &[
+            "-q",
+            "run",
+            "--set",
+            &out_arg,
+            "--set",
+            "run.robots=2",
+            "--set",
+            "run.name=e2e",
+        ],
+        &[],
+    );
     assert!(output.status.success(), "{}", text(&output.stderr));
     let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(summary["robots"].as_array().unwrap().len(), 2);
@@ -88,5 +119,9 @@ fn run_writes_trajectories_and_a_summary() {
 }
 
 fn skid_io_read_tum(path: &Path) -> usize {
-    std::fs::read_to_string(path).unwrap().lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty()).count()
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .count()
 }

@@ -11,7 +11,11 @@ pub enum ConfigError {
 
     /// A profile overlay that does not exist.
     #[error("unknown profile `{name}` (no file {}); available profiles: {}", path.display(), available.join(", "))]
-    UnknownProfile { name: String, path: PathBuf, available: Vec<String> },
+    UnknownProfile {
+        name: String,
+        path: PathBuf,
+        available: Vec<String>,
+    },
 
     /// A `--set` argument that is not `key=value`.
     #[error("--set `{argument}`: expected `section.key=value`")]

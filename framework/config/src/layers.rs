@@ -34,7 +34,11 @@ pub struct ConfigSources {
 impl ConfigSources {
     /// Sources rooted at the discovered configuration folder, with the environment enabled.
     pub fn discover() -> Self {
-        Self { config_dir: discover_config_dir(), use_env: true, ..Self::default() }
+        Self {
+            config_dir: discover_config_dir(),
+            use_env: true,
+            ..Self::default()
+        }
     }
 
     /// Merges every layer into a figment, checking that explicitly named files exist and parse.
@@ -53,7 +57,11 @@ impl ConfigSources {
             figment = figment.merge(checked_toml(overlay)?);
         }
         if self.use_env {
-            figment = figment.merge(Env::prefixed("SKID_").filter(|key| key.as_str().contains("__")).split("__"));
+            figment = figment.merge(
+                Env::prefixed("SKID_")
+                    .filter(|key| key.as_str().contains("__"))
+                    .split("__"),
+            );
         }
         for argument in &self.sets {
             figment = figment.merge(SetOverride::parse(argument)?);
@@ -64,13 +72,17 @@ impl ConfigSources {
     /// Loads, merges and validates against the plugins in `registry`.
     pub fn load(&self, registry: &Registry) -> Result<ResolvedConfig, ConfigError> {
         let figment = self.figment()?;
-        let raw: RawConfig = figment.extract().map_err(|error| crate::resolve::from_figment(&figment, error))?;
+        let raw: RawConfig = figment
+            .extract()
+            .map_err(|error| crate::resolve::from_figment(&figment, error))?;
         resolve(&figment, raw, registry)
     }
 
     /// Names of the profiles available in the configuration folder, sorted.
     pub fn available_profiles(&self) -> Vec<String> {
-        let Some(dir) = &self.config_dir else { return Vec::new() };
+        let Some(dir) = &self.config_dir else {
+            return Vec::new();
+        };
         let mut names: Vec<String> = std::fs::read_dir(dir.join("profiles"))
             .into_iter()
             .flatten()
@@ -78,7 +90,9 @@ impl ConfigSources {
             .filter_map(|entry| {
                 let path = entry.path();
                 let is_toml = path.extension().is_some_and(|ext| ext == "toml");
-                is_toml.then(|| path.file_stem().map(|stem| stem.to_string_lossy().into_owned())).flatten()
+                is_toml
+                    .then(|| path.file_stem().map(|stem| stem.to_string_lossy().into_owned()))
+                    .flatten()
             })
             .collect();
         names.sort();
@@ -86,12 +100,19 @@ impl ConfigSources {
     }
 
     fn profile_path(&self, profile: &str) -> Result<PathBuf, ConfigError> {
-        let dir = self.config_dir.clone().unwrap_or_else(|| PathBuf::from("configs"));
+        let dir = self
+            .config_dir
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("configs"));
         let path = dir.join("profiles").join(format!("{profile}.toml"));
         if path.is_file() {
             Ok(path)
         } else {
-            Err(ConfigError::UnknownProfile { name: profile.to_owned(), path, available: self.available_profiles() })
+            Err(ConfigError::UnknownProfile {
+                name: profile.to_owned(),
+                path,
+                available: self.available_profiles(),
+            })
         }
     }
 }
@@ -103,16 +124,22 @@ pub fn discover_config_dir() -> Option<PathBuf> {
         return Some(PathBuf::from(dir));
     }
     let cwd = std::env::current_dir().ok()?;
-    cwd.ancestors().map(|dir| dir.join("configs")).find(|dir| dir.join("default.toml").is_file())
+    cwd.ancestors()
+        .map(|dir| dir.join("configs"))
+        .find(|dir| dir.join("default.toml").is_file())
 }
 
 /// A TOML file provider, after checking that the file exists and is valid TOML (figment would
 /// silently skip a missing file and report syntax errors without the file name).
 fn checked_toml(path: &Path) -> Result<figment::providers::Data<Toml>, ConfigError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|error| ConfigError::MissingFile { path: path.to_owned(), reason: error.to_string() })?;
-    text.parse::<toml::Table>()
-        .map_err(|error| ConfigError::Syntax { path: path.to_owned(), message: error.to_string() })?;
+    let text = std::fs::read_to_string(path).map_err(|error| ConfigError::MissingFile {
+        path: path.to_owned(),
+        reason: error.to_string(),
+    })?;
+    text.parse::<toml::Table>().map_err(|error| ConfigError::Syntax {
+        path: path.to_owned(),
+        message: error.to_string(),
+    })?;
     Ok(Toml::file_exact(path))
 }
 
@@ -142,7 +169,9 @@ struct SetOverride {
 
 impl SetOverride {
     fn parse(argument: &str) -> Result<Self, ConfigError> {
-        let bad = || ConfigError::BadSetArgument { argument: argument.to_owned() };
+        let bad = || ConfigError::BadSetArgument {
+            argument: argument.to_owned(),
+        };
         let (key, raw) = argument.split_once('=').ok_or_else(bad)?;
         let key = key.trim();
         let valid_key = !key.is_empty() && key.split('.').all(|part| !part.is_empty());
@@ -155,7 +184,11 @@ impl SetOverride {
             .and_then(|mut table| table.remove("value"))
             .unwrap_or_else(|| toml::Value::String(raw.to_owned()));
         let value = Value::serialize(parsed).map_err(|_| bad())?;
-        Ok(Self { argument: argument.to_owned(), key: key.to_owned(), value })
+        Ok(Self {
+            argument: argument.to_owned(),
+            key: key.to_owned(),
+            value,
+        })
     }
 }
 

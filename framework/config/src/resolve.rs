@@ -37,7 +37,10 @@ impl ResolvedConfig {
     pub fn slot(&self, slot: Slot) -> &ResolvedSlot {
         static NONE: std::sync::OnceLock<ResolvedSlot> = std::sync::OnceLock::new();
         self.slots.get(&slot).unwrap_or_else(|| {
-            NONE.get_or_init(|| ResolvedSlot { plugin: NONE_PLUGIN.to_owned(), params: Params::default() })
+            NONE.get_or_init(|| ResolvedSlot {
+                plugin: NONE_PLUGIN.to_owned(),
+                params: Params::default(),
+            })
         })
     }
 
@@ -55,7 +58,10 @@ impl ResolvedConfig {
             let mut table = toml::Table::new();
             table.insert("plugin".to_owned(), toml::Value::String(resolved.plugin.clone()));
             if !resolved.is_none() {
-                table.insert(resolved.plugin.clone(), toml::Value::Table(resolved.params.table().clone()));
+                table.insert(
+                    resolved.plugin.clone(),
+                    toml::Value::Table(resolved.params.table().clone()),
+                );
             }
             root.insert(slot.key().to_owned(), toml::Value::Table(table));
         }
@@ -64,36 +70,73 @@ impl ResolvedConfig {
 }
 
 /// Validates the merged configuration against the registry.
-pub(crate) fn resolve(figment: &Figment, raw: RawConfig, registry: &Registry) -> Result<ResolvedConfig, ConfigError> {
+pub(crate) fn resolve(
+    figment: &Figment,
+    raw: RawConfig,
+    registry: &Registry,
+) -> Result<ResolvedConfig, ConfigError> {
     if !(1..=MAX_ROBOTS).contains(&raw.run.robots) {
-        return Err(invalid(figment, "run.robots", format!("{} robots; expected 1 to {MAX_ROBOTS}", raw.run.robots)));
+        return Err(invalid(
+            figment,
+            "run.robots",
+            format!("{} robots; expected 1 to {MAX_ROBOTS}", raw.run.robots),
+        ));
     }
     let mut slots = BTreeMap::new();
     for slot in Slot::ALL {
         let resolved = match raw.slot(slot) {
             Some(table) => resolve_slot(figment, slot, table, registry)?,
             None if slot == Slot::Source => {
-                return Err(invalid(figment, "source", "missing: every configuration needs a [source] table".into()));
+                return Err(invalid(
+                    figment,
+                    "source",
+                    "missing: every configuration needs a [source] table".into(),
+                ));
             }
-            None => ResolvedSlot { plugin: NONE_PLUGIN.to_owned(), params: Params::default() },
+            None => ResolvedSlot {
+                plugin: NONE_PLUGIN.to_owned(),
+                params: Params::default(),
+            },
         };
         slots.insert(slot, resolved);
     }
-    Ok(ResolvedConfig { run: raw.run, deploy: raw.deploy, slots })
+    Ok(ResolvedConfig {
+        run: raw.run,
+        deploy: raw.deploy,
+        slots,
+    })
 }
 
-fn resolve_slot(figment: &Figment, slot: Slot, table: &RawSlot, registry: &Registry) -> Result<ResolvedSlot, ConfigError> {
+fn resolve_slot(
+    figment: &Figment,
+    slot: Slot,
+    table: &RawSlot,
+    registry: &Registry,
+) -> Result<ResolvedSlot, ConfigError> {
     let known = registry.infos(slot);
-    let known_names = || known.iter().map(|info| info.name.clone()).collect::<Vec<_>>().join(", ");
+    let known_names = || {
+        known
+            .iter()
+            .map(|info| info.name.clone())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let plugin_key = format!("{slot}.plugin");
     let selected = table.plugin.as_str();
     let none_allowed = slot != Slot::Source;
     if selected == NONE_PLUGIN && !none_allowed {
-        return Err(invalid(figment, &plugin_key, format!("the source slot cannot be `none`; known: {}", known_names())));
+        return Err(invalid(
+            figment,
+            &plugin_key,
+            format!("the source slot cannot be `none`; known: {}", known_names()),
+        ));
     }
     if selected != NONE_PLUGIN && !known.iter().any(|info| info.name == selected) {
-        let message = format!("unknown {slot} plugin `{selected}`; known {slot} plugins: {}{}", known_names(),
-            if none_allowed { ", none" } else { "" });
+        let message = format!(
+            "unknown {slot} plugin `{selected}`; known {slot} plugins: {}{}",
+            known_names(),
+            if none_allowed { ", none" } else { "" }
+        );
         return Err(invalid(figment, &plugin_key, message));
     }
     // Every parameter table must belong to a plugin of this slot and parse as that plugin's parameters,
@@ -102,20 +145,36 @@ fn resolve_slot(figment: &Figment, slot: Slot, table: &RawSlot, registry: &Regis
     for (name, value) in &table.tables {
         let key = format!("{slot}.{name}");
         let Some(info) = known.iter().find(|info| &info.name == name) else {
-            let message = format!("`{name}` is not a {slot} plugin; expected `plugin` or a table named after one of: {}", known_names());
+            let message = format!(
+                "`{name}` is not a {slot} plugin; expected `plugin` or a table named after one of: {}",
+                known_names()
+            );
             return Err(invalid(figment, &key, message));
         };
         let toml::Value::Table(given) = value else {
-            return Err(invalid(figment, &key, format!("expected a table of {name} parameters, found a {}", value.type_str())));
+            return Err(invalid(
+                figment,
+                &key,
+                format!(
+                    "expected a table of {name} parameters, found a {}",
+                    value.type_str()
+                ),
+            ));
         };
         let params = Params::new(given.clone());
-        registry.validate(slot, name, &params).map_err(|error| match error {
-            skid_core::PluginError::Params(param) => {
-                let full = if param.path.is_empty() { key.clone() } else { format!("{key}.{}", param.path) };
-                invalid(figment, &full, param.message)
-            }
-            other => invalid(figment, &key, other.to_string()),
-        })?;
+        registry
+            .validate(slot, name, &params)
+            .map_err(|error| match error {
+                skid_core::PluginError::Params(param) => {
+                    let full = if param.path.is_empty() {
+                        key.clone()
+                    } else {
+                        format!("{key}.{}", param.path)
+                    };
+                    invalid(figment, &full, param.message)
+                }
+                other => invalid(figment, &key, other.to_string()),
+            })?;
         if name == selected {
             selected_params = Some(merged(info.defaults.table(), given));
         }
@@ -124,10 +183,17 @@ fn resolve_slot(figment: &Figment, slot: Slot, table: &RawSlot, registry: &Regis
         Params::default()
     } else {
         selected_params.map(Params::new).unwrap_or_else(|| {
-            known.iter().find(|info| info.name == selected).map(|info| info.defaults.clone()).unwrap_or_default()
+            known
+                .iter()
+                .find(|info| info.name == selected)
+                .map(|info| info.defaults.clone())
+                .unwrap_or_default()
         })
     };
-    Ok(ResolvedSlot { plugin: selected.to_owned(), params })
+    Ok(ResolvedSlot {
+        plugin: selected.to_owned(),
+        params,
+    })
 }
 
 /// `given` laid over `defaults`, recursively for nested tables.
@@ -135,7 +201,9 @@ fn merged(defaults: &toml::Table, given: &toml::Table) -> toml::Table {
     let mut out = defaults.clone();
     for (key, value) in given {
         let combined = match (out.get(key), value) {
-            (Some(toml::Value::Table(base)), toml::Value::Table(over)) => toml::Value::Table(merged(base, over)),
+            (Some(toml::Value::Table(base)), toml::Value::Table(over)) => {
+                toml::Value::Table(merged(base, over))
+            }
             _ => value.clone(),
         };
         out.insert(key.clone(), combined);
@@ -145,7 +213,11 @@ fn merged(defaults: &toml::Table, given: &toml::Table) -> toml::Table {
 
 /// An invalid-value error for `key`, naming the layer that supplied it.
 fn invalid(figment: &Figment, key: &str, message: String) -> ConfigError {
-    ConfigError::Invalid { origin: origin_of(figment, key), key: key.to_owned(), message }
+    ConfigError::Invalid {
+        origin: origin_of(figment, key),
+        key: key.to_owned(),
+        message,
+    }
 }
 
 /// Describes the layer that supplied `key` (or its nearest present parent).
@@ -165,12 +237,17 @@ fn origin_of(figment: &Figment, key: &str) -> String {
 fn describe_metadata(metadata: &figment::Metadata, key: &str) -> String {
     match &metadata.source {
         Some(Source::File(path)) => {
-            let shown = std::env::current_dir().ok().and_then(|cwd| path.strip_prefix(cwd).ok().map(|p| p.to_owned()));
+            let shown = std::env::current_dir()
+                .ok()
+                .and_then(|cwd| path.strip_prefix(cwd).ok().map(|p| p.to_owned()));
             shown.unwrap_or_else(|| path.clone()).display().to_string()
         }
         // The variable is named back from the key the way `SKID_<SECTION>__<KEY>` was split.
         _ if metadata.name.contains("environment") => {
-            format!("environment variable SKID_{}", key.to_uppercase().replace('.', "__"))
+            format!(
+                "environment variable SKID_{}",
+                key.to_uppercase().replace('.', "__")
+            )
         }
         _ => metadata.name.to_string(),
     }
@@ -182,20 +259,32 @@ pub(crate) fn from_figment(figment: &Figment, error: figment::Error) -> ConfigEr
     let message = match &error.kind {
         Kind::UnknownField(field, expected) => {
             if error.path.last() != Some(field) {
-                key = if key.is_empty() { field.clone() } else { format!("{key}.{field}") };
+                key = if key.is_empty() {
+                    field.clone()
+                } else {
+                    format!("{key}.{field}")
+                };
             }
             format!("unknown key `{field}`; expected one of: {}", expected.join(", "))
         }
         Kind::MissingField(field) => {
             if error.path.last().map(String::as_str) != Some(field.as_ref()) {
-                key = if key.is_empty() { field.to_string() } else { format!("{key}.{field}") };
+                key = if key.is_empty() {
+                    field.to_string()
+                } else {
+                    format!("{key}.{field}")
+                };
             }
             format!("missing key `{field}`")
         }
         other => other.to_string(),
     };
     let origin = if key.is_empty() {
-        error.metadata.as_ref().map(|m| m.name.to_string()).unwrap_or_else(|| "configuration".to_owned())
+        error
+            .metadata
+            .as_ref()
+            .map(|m| m.name.to_string())
+            .unwrap_or_else(|| "configuration".to_owned())
     } else {
         origin_of(figment, &key)
     };

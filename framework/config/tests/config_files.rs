@@ -2,6 +2,8 @@
 //! files in `tests/bad/`. Every error must name the file (or layer), the full key path and what was
 //! expected.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test helpers fail loudly by design.
+
 use std::path::PathBuf;
 
 use skid_config::{ConfigError, ConfigSources};
@@ -16,15 +18,24 @@ fn repo_configs() -> PathBuf {
 }
 
 fn bad(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/bad").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/bad")
+        .join(name)
 }
 
 fn sources() -> ConfigSources {
-    ConfigSources { config_dir: Some(repo_configs()), ..ConfigSources::default() }
+    ConfigSources {
+        config_dir: Some(repo_configs()),
+        ..ConfigSources::default()
+    }
 }
 
 fn load_with_overlay(name: &str) -> Result<skid_config::ResolvedConfig, ConfigError> {
-    ConfigSources { overlays: vec![bad(name)], ..sources() }.load(&registry())
+    ConfigSources {
+        overlays: vec![bad(name)],
+        ..sources()
+    }
+    .load(&registry())
 }
 
 #[test]
@@ -32,7 +43,13 @@ fn default_profile_loads_and_fills_plugin_defaults() {
     let config = sources().load(&registry()).unwrap();
     assert_eq!(config.slot(Slot::Source).plugin, "kitti");
     assert_eq!(config.slot(Slot::Odometry).plugin, "ground_truth");
-    assert!(config.slot(Slot::Odometry).params.table().contains_key("keyframe"));
+    assert!(
+        config
+            .slot(Slot::Odometry)
+            .params
+            .table()
+            .contains_key("keyframe")
+    );
     let shown = config.to_toml_string();
     assert!(shown.contains("[odometry.ground_truth.keyframe]"), "{shown}");
     assert!(shown.contains("robots = 3"), "{shown}");
@@ -49,8 +66,16 @@ fn embedded_default_equals_the_file() {
 fn every_profile_in_the_repository_validates() {
     let profiles = sources().available_profiles();
     for profile in profiles {
-        let config = ConfigSources { profile: Some(profile.clone()), ..sources() }.load(&registry());
-        assert!(config.is_ok(), "profile {profile}: {}", config.err().map(|e| e.to_string()).unwrap_or_default());
+        let config = ConfigSources {
+            profile: Some(profile.clone()),
+            ..sources()
+        }
+        .load(&registry());
+        assert!(
+            config.is_ok(),
+            "profile {profile}: {}",
+            config.err().map(|e| e.to_string()).unwrap_or_default()
+        );
     }
 }
 
@@ -58,7 +83,10 @@ fn assert_invalid(error: ConfigError, file: &str, key: &str, expected: &[&str]) 
     let text = error.to_string();
     match &error {
         ConfigError::Invalid { origin, key: got, .. } => {
-            assert!(origin.ends_with(file), "origin `{origin}` should name {file}: {text}");
+            assert!(
+                origin.ends_with(file),
+                "origin `{origin}` should name {file}: {text}"
+            );
             assert_eq!(got, key, "{text}");
         }
         other => panic!("expected an invalid-key error, got {other:?}"),
@@ -71,19 +99,34 @@ fn assert_invalid(error: ConfigError, file: &str, key: &str, expected: &[&str]) 
 #[test]
 fn typo_in_plugin_key_names_file_key_and_expected_keys() {
     let error = load_with_overlay("typo_key.toml").unwrap_err();
-    assert_invalid(error, "typo_key.toml", "odometry.ground_truth.translation_noize_m", &["translation_noise_m", "rotation_noise_deg"]);
+    assert_invalid(
+        error,
+        "typo_key.toml",
+        "odometry.ground_truth.translation_noize_m",
+        &["translation_noise_m", "rotation_noise_deg"],
+    );
 }
 
 #[test]
 fn wrong_type_names_the_nested_key_and_the_expected_type() {
     let error = load_with_overlay("wrong_type.toml").unwrap_err();
-    assert_invalid(error, "wrong_type.toml", "odometry.ground_truth.keyframe.distance_m", &["f64"]);
+    assert_invalid(
+        error,
+        "wrong_type.toml",
+        "odometry.ground_truth.keyframe.distance_m",
+        &["f64"],
+    );
 }
 
 #[test]
 fn unknown_plugin_lists_the_known_ones() {
     let error = load_with_overlay("unknown_plugin.toml").unwrap_err();
-    assert_invalid(error, "unknown_plugin.toml", "odometry.plugin", &["kiss_icq", "ground_truth", "none"]);
+    assert_invalid(
+        error,
+        "unknown_plugin.toml",
+        "odometry.plugin",
+        &["kiss_icq", "ground_truth", "none"],
+    );
 }
 
 #[test]
@@ -95,7 +138,12 @@ fn unknown_section_lists_the_expected_sections() {
 #[test]
 fn parameters_for_a_plugin_of_another_name_are_refused() {
     let error = load_with_overlay("unknown_plugin_table.toml").unwrap_err();
-    assert_invalid(error, "unknown_plugin_table.toml", "odometry.ground_truht", &["ground_truth"]);
+    assert_invalid(
+        error,
+        "unknown_plugin_table.toml",
+        "odometry.ground_truht",
+        &["ground_truth"],
+    );
 }
 
 #[test]
@@ -123,13 +171,21 @@ fn missing_file_and_unknown_profile_are_errors() {
     let error = load_with_overlay("does_not_exist.toml").unwrap_err();
     assert!(matches!(error, ConfigError::MissingFile { .. }));
     assert!(error.to_string().contains("does_not_exist.toml"));
-    let error = ConfigSources { profile: Some("nope".into()), ..sources() }.load(&registry()).unwrap_err();
+    let error = ConfigSources {
+        profile: Some("nope".into()),
+        ..sources()
+    }
+    .load(&registry())
+    .unwrap_err();
     assert!(matches!(error, ConfigError::UnknownProfile { .. }), "{error}");
 }
 
 #[test]
 fn set_overrides_win_and_errors_name_the_argument() {
-    let sets = vec!["odometry.ground_truth.scale_drift_percent=2.5".to_owned(), "run.name=trial".to_owned()];
+    let sets = vec![
+        "odometry.ground_truth.scale_drift_percent=2.5".to_owned(),
+        "run.name=trial".to_owned(),
+    ];
     let config = ConfigSources { sets, ..sources() }.load(&registry()).unwrap();
     assert_eq!(config.run.name, "trial");
     let drift = config.slot(Slot::Odometry).params.table()["scale_drift_percent"].as_float();
@@ -137,9 +193,19 @@ fn set_overrides_win_and_errors_name_the_argument() {
 
     let sets = vec!["odometry.ground_truth.scale_drift_percent=lots".to_owned()];
     let error = ConfigSources { sets, ..sources() }.load(&registry()).unwrap_err();
-    assert_invalid(error, "--set odometry.ground_truth.scale_drift_percent=lots", "odometry.ground_truth.scale_drift_percent", &["f64"]);
+    assert_invalid(
+        error,
+        "--set odometry.ground_truth.scale_drift_percent=lots",
+        "odometry.ground_truth.scale_drift_percent",
+        &["f64"],
+    );
 
-    let error = ConfigSources { sets: vec!["novalue".into()], ..sources() }.load(&registry()).unwrap_err();
+    let error = ConfigSources {
+        sets: vec!["novalue".into()],
+        ..sources()
+    }
+    .load(&registry())
+    .unwrap_err();
     assert!(matches!(error, ConfigError::BadSetArgument { .. }), "{error}");
 }
 

@@ -82,7 +82,9 @@ impl<'a> CloudView<'a> {
 
     /// Iterates the positions as f64 nalgebra points.
     pub fn positions(&self) -> impl Iterator<Item = Point3<f64>> + 'a {
-        self.points.iter().map(|p| Point3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)))
+        self.points
+            .iter()
+            .map(|p| Point3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)))
     }
 
     /// A copy of the points moved by `target_from_source` (the view's frame being the source frame).
@@ -169,7 +171,11 @@ mod tests {
 
     #[test]
     fn from_finite_drops_and_counts_bad_points() {
-        let points = vec![Point::new(1.0, 0.0, 0.0), Point::new(f32::NAN, 0.0, 0.0), Point::new(0.0, f32::INFINITY, 0.0)];
+        let points = vec![
+            Point::new(1.0, 0.0, 0.0),
+            Point::new(f32::NAN, 0.0, 0.0),
+            Point::new(0.0, f32::INFINITY, 0.0),
+        ];
         let (cloud, dropped) = Cloud::from_finite(points);
         assert_eq!(cloud.len(), 1);
         assert_eq!(dropped, 2);
@@ -185,8 +191,15 @@ mod tests {
     #[test]
     fn ensure_usable_names_the_problem() {
         let cloud = Cloud::new(vec![Point::new(1.0, 2.0, 3.0), Point::new(f32::NAN, 0.0, 0.0)]);
-        let error = cloud.view().ensure_usable("source cloud", 1).unwrap_err().to_string();
-        assert!(error.contains("source cloud") && error.contains("point 1"), "{error}");
+        let error = cloud
+            .view()
+            .ensure_usable("source cloud", 1)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("source cloud") && error.contains("point 1"),
+            "{error}"
+        );
         let tiny = Cloud::new(vec![Point::new(1.0, 2.0, 3.0)]);
         let error = tiny.view().ensure_usable("target", 10).unwrap_err().to_string();
         assert!(error.contains("at least 10"), "{error}");
@@ -195,7 +208,10 @@ mod tests {
     #[test]
     fn transformed_applies_target_from_source() {
         let cloud = Cloud::new(vec![Point::with_intensity(1.0, 0.0, 0.0, 7.0)]);
-        let target_from_source = Pose::new(Vector3::new(0.0, 0.0, 1.0), Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2));
+        let target_from_source = Pose::new(
+            Vector3::new(0.0, 0.0, 1.0),
+            Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+        );
         let moved = cloud.view().transformed(&target_from_source);
         let p = moved.points[0];
         assert!((p.x - 0.0).abs() < 1e-6 && (p.y - 1.0).abs() < 1e-6 && (p.z - 1.0).abs() < 1e-6);

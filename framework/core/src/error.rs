@@ -20,7 +20,11 @@ pub enum PluginError {
 
     /// No plugin of that name is registered for the slot.
     #[error("unknown {slot} plugin `{name}`; known {slot} plugins: {}", known.join(", "))]
-    UnknownPlugin { slot: Slot, name: String, known: Vec<String> },
+    UnknownPlugin {
+        slot: Slot,
+        name: String,
+        known: Vec<String>,
+    },
 
     /// A plugin of that name is already registered for the slot.
     #[error("a {slot} plugin named `{name}` is already registered")]
@@ -46,11 +50,17 @@ pub enum PluginError {
 impl PluginError {
     /// A plugin-specific failure.
     pub fn failed(plugin: impl Into<String>, message: impl Into<String>) -> Self {
-        Self::Failed { plugin: plugin.into(), message: message.into() }
+        Self::Failed {
+            plugin: plugin.into(),
+            message: message.into(),
+        }
     }
 
     /// A file error with its path.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Self::Io { path: path.into(), source }
+        Self::Io {
+            path: path.into(),
+            source,
+        }
     }
 }

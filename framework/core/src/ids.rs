@@ -24,7 +24,10 @@ pub struct KeyframeId {
 impl KeyframeId {
     /// The keyframe `index` of robot `robot`.
     pub const fn new(robot: u32, index: u32) -> Self {
-        Self { robot: RobotId(robot), index }
+        Self {
+            robot: RobotId(robot),
+            index,
+        }
     }
 }
 

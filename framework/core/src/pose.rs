@@ -24,14 +24,21 @@ pub fn pose_to_wire(pose: &Pose) -> PoseWire {
 /// Converts a wire pose back, or `None` when it holds non-finite numbers or a zero quaternion.
 /// The quaternion is re-normalised.
 pub fn pose_from_wire(wire: &PoseWire) -> Option<Pose> {
-    let all_finite = wire.translation_m.iter().chain(&wire.rotation_xyzw).all(|v| v.is_finite());
+    let all_finite = wire
+        .translation_m
+        .iter()
+        .chain(&wire.rotation_xyzw)
+        .all(|v| v.is_finite());
     let [x, y, z, w] = wire.rotation_xyzw;
     let quaternion = Quaternion::new(w, x, y, z);
     if !all_finite || quaternion.norm() < 1e-9 {
         return None;
     }
     let [tx, ty, tz] = wire.translation_m;
-    Some(Isometry3::from_parts(Translation3::new(tx, ty, tz), UnitQuaternion::from_quaternion(quaternion)))
+    Some(Isometry3::from_parts(
+        Translation3::new(tx, ty, tz),
+        UnitQuaternion::from_quaternion(quaternion),
+    ))
 }
 
 /// Converts an information matrix to its row-major wire form.
@@ -70,9 +77,15 @@ mod tests {
 
     #[test]
     fn invalid_wire_poses_are_refused() {
-        let nan = PoseWire { translation_m: [f64::NAN, 0.0, 0.0], ..PoseWire::IDENTITY };
+        let nan = PoseWire {
+            translation_m: [f64::NAN, 0.0, 0.0],
+            ..PoseWire::IDENTITY
+        };
         assert!(pose_from_wire(&nan).is_none());
-        let zero = PoseWire { rotation_xyzw: [0.0; 4], ..PoseWire::IDENTITY };
+        let zero = PoseWire {
+            rotation_xyzw: [0.0; 4],
+            ..PoseWire::IDENTITY
+        };
         assert!(pose_from_wire(&zero).is_none());
     }
 

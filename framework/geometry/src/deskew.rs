@@ -12,7 +12,11 @@ use skid_core::{Point, Pose, RawPoint};
 ///
 /// `previous_from_current` is the motion over one scan period, `scan_period_s` its duration. Points with
 /// a non-finite position or time offset are dropped.
-pub fn deskew_constant_velocity(points: &[RawPoint], previous_from_current: &Pose, scan_period_s: f64) -> Vec<Point> {
+pub fn deskew_constant_velocity(
+    points: &[RawPoint],
+    previous_from_current: &Pose,
+    scan_period_s: f64,
+) -> Vec<Point> {
     let usable = points.iter().filter(|p| p.is_finite());
     if !(scan_period_s.is_finite() && scan_period_s > 0.0) {
         return usable.map(RawPoint::point).collect();
@@ -39,7 +43,10 @@ mod tests {
         // The sensor drives 1 m along x per 0.1 s sweep; a point measured half-way through at x = 10 m
         // in the moving frame lies at x = 10.5 m in the frame at the stamp.
         let motion = Pose::translation(1.0, 0.0, 0.0);
-        let raw = [RawPoint::new(10.0, 0.0, 0.0, 1.0, 0.05, 0), RawPoint::new(5.0, 0.0, 0.0, 1.0, 0.0, 0)];
+        let raw = [
+            RawPoint::new(10.0, 0.0, 0.0, 1.0, 0.05, 0),
+            RawPoint::new(5.0, 0.0, 0.0, 1.0, 0.0, 0),
+        ];
         let deskewed = deskew_constant_velocity(&raw, &motion, 0.1);
         assert!((deskewed[0].x - 10.5).abs() < 1e-5);
         assert!((deskewed[1].x - 5.0).abs() < 1e-6);
@@ -56,7 +63,10 @@ mod tests {
 
     #[test]
     fn non_finite_points_are_dropped() {
-        let raw = [RawPoint::new(f32::NAN, 0.0, 0.0, 0.0, 0.0, 0), RawPoint::new(1.0, 0.0, 0.0, 0.0, f32::NAN, 0)];
+        let raw = [
+            RawPoint::new(f32::NAN, 0.0, 0.0, 0.0, 0.0, 0),
+            RawPoint::new(1.0, 0.0, 0.0, 0.0, f32::NAN, 0),
+        ];
         assert!(deskew_constant_velocity(&raw, &Pose::identity(), 0.1).is_empty());
     }
 }

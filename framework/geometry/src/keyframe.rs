@@ -18,7 +18,11 @@ pub struct KeyframePolicy {
 
 impl Default for KeyframePolicy {
     fn default() -> Self {
-        Self { distance_m: 2.0, angle_deg: 15.0, interval_s: 0.0 }
+        Self {
+            distance_m: 2.0,
+            angle_deg: 15.0,
+            interval_s: 0.0,
+        }
     }
 }
 
@@ -32,7 +36,11 @@ pub struct KeyframeTrigger {
 
 impl KeyframeTrigger {
     pub fn new(policy: KeyframePolicy) -> Self {
-        Self { policy, last: None, count: 0 }
+        Self {
+            policy,
+            last: None,
+            count: 0,
+        }
     }
 
     /// Decides whether the scan at `stamp_nanos` with pose `world_from_sensor` is a keyframe, and if so
@@ -65,12 +73,25 @@ mod tests {
 
     #[test]
     fn fires_on_distance_angle_and_time() {
-        let policy = KeyframePolicy { distance_m: 1.0, angle_deg: 10.0, interval_s: 5.0 };
+        let policy = KeyframePolicy {
+            distance_m: 1.0,
+            angle_deg: 10.0,
+            interval_s: 5.0,
+        };
         let mut trigger = KeyframeTrigger::new(policy);
         assert_eq!(trigger.check(0, &Pose::identity()), Some(0));
-        assert_eq!(trigger.check(100_000_000, &Pose::translation(0.5, 0.0, 0.0)), None);
-        assert_eq!(trigger.check(200_000_000, &Pose::translation(1.2, 0.0, 0.0)), Some(1));
-        let turned = Pose::new(Vector3::new(1.2, 0.0, 0.0), Vector3::new(0.0, 0.0, 11f64.to_radians()));
+        assert_eq!(
+            trigger.check(100_000_000, &Pose::translation(0.5, 0.0, 0.0)),
+            None
+        );
+        assert_eq!(
+            trigger.check(200_000_000, &Pose::translation(1.2, 0.0, 0.0)),
+            Some(1)
+        );
+        let turned = Pose::new(
+            Vector3::new(1.2, 0.0, 0.0),
+            Vector3::new(0.0, 0.0, 11f64.to_radians()),
+        );
         assert_eq!(trigger.check(300_000_000, &turned), Some(2));
         assert_eq!(trigger.check(6_000_000_000, &turned), Some(3));
     }

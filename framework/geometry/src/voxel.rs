@@ -22,7 +22,10 @@ pub fn voxel_downsample(points: &[Point], voxel_size_m: f32) -> Vec<Point> {
         return finite.copied().collect();
     }
     let mut seen: HashMap<[i32; 3], ()> = HashMap::with_capacity(points.len() / 4);
-    finite.filter(|p| seen.insert(voxel_key(p, voxel_size_m), ()).is_none()).copied().collect()
+    finite
+        .filter(|p| seen.insert(voxel_key(p, voxel_size_m), ()).is_none())
+        .copied()
+        .collect()
 }
 
 #[cfg(test)]
@@ -44,17 +47,23 @@ mod tests {
 
     #[test]
     fn bad_voxel_size_keeps_finite_points() {
-        let points = vec![Point::new(0.1, 0.1, 0.1), Point::new(0.2, 0.2, 0.2), Point::new(f32::INFINITY, 0.0, 0.0)];
+        let points = vec![
+            Point::new(0.1, 0.1, 0.1),
+            Point::new(0.2, 0.2, 0.2),
+            Point::new(f32::INFINITY, 0.0, 0.0),
+        ];
         assert_eq!(voxel_downsample(&points, 0.0).len(), 2);
         assert_eq!(voxel_downsample(&points, f32::NAN).len(), 2);
     }
 
     #[test]
     fn output_has_at_most_one_point_per_voxel() {
-        let points: Vec<Point> = (0..1000).map(|i| {
-            let t = i as f32 * 0.37;
-            Point::new(t.sin() * 10.0, t.cos() * 10.0, (t * 0.1).sin())
-        }).collect();
+        let points: Vec<Point> = (0..1000)
+            .map(|i| {
+                let t = i as f32 * 0.37;
+                Point::new(t.sin() * 10.0, t.cos() * 10.0, (t * 0.1).sin())
+            })
+            .collect();
         let kept = voxel_downsample(&points, 0.5);
         let mut keys: Vec<_> = kept.iter().map(|p| voxel_key(p, 0.5)).collect();
         let before = keys.len();

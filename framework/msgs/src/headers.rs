@@ -18,11 +18,18 @@ wire_type!(PoseWire, "skid/PoseWire@1");
 
 impl PoseWire {
     /// The identity transform.
-    pub const IDENTITY: Self = Self { translation_m: [0.0; 3], rotation_xyzw: [0.0, 0.0, 0.0, 1.0] };
+    pub const IDENTITY: Self = Self {
+        translation_m: [0.0; 3],
+        rotation_xyzw: [0.0, 0.0, 0.0, 1.0],
+    };
 
     /// True when every number is finite and the quaternion has unit norm (within 1e-6).
     pub fn is_valid(&self) -> bool {
-        let finite = self.translation_m.iter().chain(&self.rotation_xyzw).all(|v| v.is_finite());
+        let finite = self
+            .translation_m
+            .iter()
+            .chain(&self.rotation_xyzw)
+            .all(|v| v.is_finite());
         let norm_sq: f64 = self.rotation_xyzw.iter().map(|v| v * v).sum();
         finite && (norm_sq - 1.0).abs() < 1e-6
     }
@@ -121,9 +128,15 @@ mod tests {
     #[test]
     fn pose_validity() {
         assert!(PoseWire::IDENTITY.is_valid());
-        let bad = PoseWire { translation_m: [f64::NAN, 0.0, 0.0], ..PoseWire::IDENTITY };
+        let bad = PoseWire {
+            translation_m: [f64::NAN, 0.0, 0.0],
+            ..PoseWire::IDENTITY
+        };
         assert!(!bad.is_valid());
-        let unnormalised = PoseWire { rotation_xyzw: [0.0, 0.0, 0.0, 2.0], ..PoseWire::IDENTITY };
+        let unnormalised = PoseWire {
+            rotation_xyzw: [0.0, 0.0, 0.0, 2.0],
+            ..PoseWire::IDENTITY
+        };
         assert!(!unnormalised.is_valid());
     }
 }

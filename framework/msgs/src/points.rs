@@ -22,7 +22,12 @@ wire_type!(Point, "skid/Point@1");
 impl Point {
     /// A point at `(x, y, z)` with zero intensity.
     pub const fn new(x: f32, y: f32, z: f32) -> Self {
-        Self { x, y, z, intensity: 0.0 }
+        Self {
+            x,
+            y,
+            z,
+            intensity: 0.0,
+        }
     }
 
     /// A point at `(x, y, z)` with the given intensity.
@@ -73,7 +78,15 @@ impl RawPoint {
 
     /// A raw point with every field given.
     pub const fn new(x: f32, y: f32, z: f32, intensity: f32, time_offset_s: f32, ring: u16) -> Self {
-        Self { x, y, z, intensity, time_offset_s, ring, reserved: [0; 10] }
+        Self {
+            x,
+            y,
+            z,
+            intensity,
+            time_offset_s,
+            ring,
+            reserved: [0; 10],
+        }
     }
 
     /// The processed point, dropping the timing and ring.

@@ -72,12 +72,15 @@ fn build<T: ?Sized + 'static>(
     if resolved.is_none() {
         return Ok(None);
     }
-    table.create(&resolved.plugin, &resolved.params, context).map(Some).map_err(|source| RuntimeError::Plugin {
-        robot: context.robot,
-        slot,
-        plugin: resolved.plugin.clone(),
-        source,
-    })
+    table
+        .create(&resolved.plugin, &resolved.params, context)
+        .map(Some)
+        .map_err(|source| RuntimeError::Plugin {
+            robot: context.robot,
+            slot,
+            plugin: resolved.plugin.clone(),
+            source,
+        })
 }
 
 impl Fleet {
@@ -152,7 +155,10 @@ impl Fleet {
             name: self.config.run.name.clone(),
             robots: self.robots.iter().map(RobotHost::summary).collect(),
             wall_s,
-            slots: Slot::ALL.iter().map(|&slot| (slot.key().to_owned(), self.config.slot(slot).plugin.clone())).collect(),
+            slots: Slot::ALL
+                .iter()
+                .map(|&slot| (slot.key().to_owned(), self.config.slot(slot).plugin.clone()))
+                .collect(),
         }
     }
 }
@@ -178,9 +184,12 @@ impl RobotHost {
         }
         if let Some(odometry) = self.odometry.as_mut() {
             let started = Instant::now();
-            let update = odometry.register(&scan).map_err(|error| plugin_error(Slot::Odometry, error))?;
+            let update = odometry
+                .register(&scan)
+                .map_err(|error| plugin_error(Slot::Odometry, error))?;
             self.odometry_ms.push(started.elapsed().as_secs_f64() * 1e3);
-            self.trajectory.push((update.stamp_nanos, update.world_from_sensor));
+            self.trajectory
+                .push((update.stamp_nanos, update.world_from_sensor));
             self.keyframes += usize::from(update.keyframe.is_some());
         }
         Ok(true)
@@ -190,7 +199,11 @@ impl RobotHost {
         let mut sorted = self.odometry_ms.clone();
         sorted.sort_by(f64::total_cmp);
         let quantile = |q: f64| {
-            if sorted.is_empty() { 0.0 } else { sorted[((sorted.len() - 1) as f64 * q).round() as usize] }
+            if sorted.is_empty() {
+                0.0
+            } else {
+                sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+            }
         };
         let path_length_m = self
             .trajectory
@@ -201,7 +214,11 @@ impl RobotHost {
             robot: self.robot.0,
             scans: self.scans,
             keyframes: self.keyframes,
-            mean_points_per_scan: if self.scans == 0 { 0.0 } else { self.points as f64 / self.scans as f64 },
+            mean_points_per_scan: if self.scans == 0 {
+                0.0
+            } else {
+                self.points as f64 / self.scans as f64
+            },
             odometry_ms_median: quantile(0.5),
             odometry_ms_p90: quantile(0.9),
             path_length_m,
@@ -219,7 +236,8 @@ impl RobotHost {
             .iter()
             .zip(&self.ground_truth)
             .map(|((_, estimate), (_, truth))| {
-                ((truth_from_estimate * estimate).translation.vector - truth.translation.vector).norm_squared()
+                ((truth_from_estimate * estimate).translation.vector - truth.translation.vector)
+                    .norm_squared()
             })
             .sum();
         Some((sum_sq / self.trajectory.len() as f64).sqrt())

@@ -25,5 +25,8 @@ pub enum RuntimeError {
     },
     /// An output could not be written.
     #[error("writing {}: {message}", path.display())]
-    Output { path: std::path::PathBuf, message: String },
+    Output {
+        path: std::path::PathBuf,
+        message: String,
+    },
 }

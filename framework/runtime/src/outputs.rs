@@ -8,7 +8,10 @@ use skid_io::trajectory::{StampedPose, write_kitti_poses, write_tum};
 use crate::{Fleet, RunSummary, RuntimeError};
 
 fn output_error(path: &Path, message: impl ToString) -> RuntimeError {
-    RuntimeError::Output { path: path.to_owned(), message: message.to_string() }
+    RuntimeError::Output {
+        path: path.to_owned(),
+        message: message.to_string(),
+    }
 }
 
 /// Writes everything under `<output_dir>/<name>/` and returns that folder.
@@ -21,7 +24,13 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, Run
         let robot_folder = folder.join(format!("robot{}", robot.robot.0));
         std::fs::create_dir_all(&robot_folder).map_err(|e| output_error(&robot_folder, e))?;
         let stamped = |poses: &[(u64, skid_core::Pose)]| -> Vec<StampedPose> {
-            poses.iter().map(|(stamp, pose)| StampedPose { stamp_s: *stamp as f64 * 1e-9, world_from_sensor: *pose }).collect()
+            poses
+                .iter()
+                .map(|(stamp, pose)| StampedPose {
+                    stamp_s: *stamp as f64 * 1e-9,
+                    world_from_sensor: *pose,
+                })
+                .collect()
         };
         if !robot.trajectory.is_empty() {
             let tum = robot_folder.join("trajectory.tum");

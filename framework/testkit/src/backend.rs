@@ -57,13 +57,26 @@ impl GraphView for ChainGraph {
         }
         let target_pose = self.poses.get(&target)?;
         let source_pose = self.poses.get(&source)?;
-        let (low, high) = if target.index <= source.index { (target.index, source.index) } else { (source.index, target.index) };
+        let (low, high) = if target.index <= source.index {
+            (target.index, source.index)
+        } else {
+            (source.index, target.index)
+        };
         // Covariance of low_from_high: the steps' covariances moved into the low frame and summed.
-        let low_pose = self.poses.get(&KeyframeId { robot: target.robot, index: low })?;
+        let low_pose = self.poses.get(&KeyframeId {
+            robot: target.robot,
+            index: low,
+        })?;
         let mut covariance = Matrix6::zeros();
         for index in low + 1..=high {
-            let id = KeyframeId { robot: target.robot, index };
-            let previous = self.poses.get(&KeyframeId { robot: target.robot, index: index - 1 })?;
+            let id = KeyframeId {
+                robot: target.robot,
+                index,
+            };
+            let previous = self.poses.get(&KeyframeId {
+                robot: target.robot,
+                index: index - 1,
+            })?;
             let ad = adjoint(&(low_pose.inverse() * previous));
             covariance += ad * self.step_covariance.get(&id)? * ad.transpose();
         }
@@ -73,7 +86,10 @@ impl GraphView for ChainGraph {
             let ad = adjoint(&target_from_source);
             covariance = ad * covariance * ad.transpose();
         }
-        Some(RelativePose { target_from_source, covariance })
+        Some(RelativePose {
+            target_from_source,
+            covariance,
+        })
     }
 
     fn keyframes(&self) -> Vec<KeyframeId> {
@@ -101,7 +117,10 @@ pub fn square_truth(index: u32) -> Pose {
 /// Runs the back-end contract on `backend`.
 pub fn check_backend(backend: &mut dyn Backend) {
     let odometry_information = Information::identity() * 100.0;
-    let drift = Pose::new(Vector3::new(0.02, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.5f64.to_radians()));
+    let drift = Pose::new(
+        Vector3::new(0.02, 0.0, 0.0),
+        Vector3::new(0.0, 0.0, 0.5f64.to_radians()),
+    );
     let mut estimate = Pose::identity();
     let count = 40;
     for index in 0..count {
@@ -122,17 +141,27 @@ pub fn check_backend(backend: &mut dyn Backend) {
             backend.add_keyframe(id, estimate).expect("add keyframe");
         }
     }
-    assert!(backend.add_keyframe(KeyframeId::new(0, 0), Pose::identity()).is_err(), "a keyframe cannot be added twice");
+    assert!(
+        backend
+            .add_keyframe(KeyframeId::new(0, 0), Pose::identity())
+            .is_err(),
+        "a keyframe cannot be added twice"
+    );
     let dangling = OdometryMeasurement {
         target: KeyframeId::new(0, 100),
         source: KeyframeId::new(0, 101),
         target_from_source: Pose::identity(),
         information: odometry_information,
     };
-    assert!(backend.add_odometry(dangling).is_err(), "odometry between unknown keyframes is an error");
+    assert!(
+        backend.add_odometry(dangling).is_err(),
+        "odometry between unknown keyframes is an error"
+    );
 
     let last = KeyframeId::new(0, count - 1);
-    backend.optimize(OptimizeBudget::default()).expect("optimise the chain");
+    backend
+        .optimize(OptimizeBudget::default())
+        .expect("optimise the chain");
     let before = backend.graph().pose(last).expect("last pose");
     let (drift_error_m, _) = pose_error(&square_truth(count - 1), &before);
 
@@ -144,17 +173,33 @@ pub fn check_backend(backend: &mut dyn Backend) {
         information: Information::identity() * 1000.0,
     };
     backend.add_loop(closure).expect("add loop");
-    let report = backend.optimize(OptimizeBudget::default()).expect("optimise with the loop");
-    assert!(report.final_cost.is_finite() && report.final_cost <= report.initial_cost + 1e-9, "cost does not increase");
+    let report = backend
+        .optimize(OptimizeBudget::default())
+        .expect("optimise with the loop");
+    assert!(
+        report.final_cost.is_finite() && report.final_cost <= report.initial_cost + 1e-9,
+        "cost does not increase"
+    );
     let after = backend.graph().pose(last).expect("last pose");
     let (closed_error_m, _) = pose_error(&square_truth(count - 1), &after);
-    assert!(closed_error_m < drift_error_m * 0.25, "the loop pulls the end in: {drift_error_m:.3} m -> {closed_error_m:.3} m");
+    assert!(
+        closed_error_m < drift_error_m * 0.25,
+        "the loop pulls the end in: {drift_error_m:.3} m -> {closed_error_m:.3} m"
+    );
     assert_eq!(backend.graph().loops().len(), 1);
 
     backend.remove_loop(LoopId(1)).expect("remove loop");
-    assert!(backend.remove_loop(LoopId(1)).is_err(), "removing an unknown loop is an error");
-    backend.optimize(OptimizeBudget::default()).expect("optimise without the loop");
+    assert!(
+        backend.remove_loop(LoopId(1)).is_err(),
+        "removing an unknown loop is an error"
+    );
+    backend
+        .optimize(OptimizeBudget::default())
+        .expect("optimise without the loop");
     let restored = backend.graph().pose(last).expect("last pose");
     let (restored_difference_m, _) = pose_error(&before, &restored);
-    assert!(restored_difference_m < 1e-3, "removing the loop restores the odometry solution ({restored_difference_m} m)");
+    assert!(
+        restored_difference_m < 1e-3,
+        "removing the loop restores the odometry solution ({restored_difference_m} m)"
+    );
 }

@@ -21,7 +21,11 @@ pub struct DescriptorExpectations {
 
 impl Default for DescriptorExpectations {
     fn default() -> Self {
-        Self { yaws_deg: vec![30.0, 90.0, 180.0, 270.0], max_yawed_over_other: 0.5, yaw_hint_tolerance_deg: Some(6.0) }
+        Self {
+            yaws_deg: vec![30.0, 90.0, 180.0, 270.0],
+            max_yawed_over_other: 0.5,
+            yaw_hint_tolerance_deg: Some(6.0),
+        }
     }
 }
 
@@ -52,9 +56,14 @@ pub fn check_descriptor(mut make: impl FnMut() -> Box<dyn Descriptor>, expect: &
     let mut descriptor = make();
     let base = descriptor.describe(here.view()).expect("describes a scan");
     assert!(!base.values.is_empty(), "a descriptor has values");
-    assert!(base.values.iter().all(|v| v.is_finite()), "no NaN in a descriptor");
+    assert!(
+        base.values.iter().all(|v| v.is_finite()),
+        "no NaN in a descriptor"
+    );
     assert_eq!(base.kind, descriptor.kind());
-    let other = descriptor.describe(elsewhere.view()).expect("describes another scan");
+    let other = descriptor
+        .describe(elsewhere.view())
+        .expect("describes another scan");
 
     let mut index = descriptor.new_index();
     let here_id = KeyframeId::new(0, 0);
@@ -65,39 +74,77 @@ pub fn check_descriptor(mut make: impl FnMut() -> Box<dyn Descriptor>, expect: &
 
     let found = index.query(&base, 2, &|_| false).expect("query");
     assert_eq!(found[0].id, here_id, "a descriptor retrieves itself first");
-    assert!(found[0].distance.abs() < 1e-6, "distance to itself is zero, got {}", found[0].distance);
-    assert!(found.windows(2).all(|w| w[0].distance <= w[1].distance), "results sorted by distance");
-    let distance_to_other = found.iter().find(|c| c.id == other_id).map(|c| c.distance).expect("both stored");
+    assert!(
+        found[0].distance.abs() < 1e-6,
+        "distance to itself is zero, got {}",
+        found[0].distance
+    );
+    assert!(
+        found.windows(2).all(|w| w[0].distance <= w[1].distance),
+        "results sorted by distance"
+    );
+    let distance_to_other = found
+        .iter()
+        .find(|c| c.id == other_id)
+        .map(|c| c.distance)
+        .expect("both stored");
     assert!(distance_to_other > 0.0, "different places differ");
 
     for &yaw_deg in &expect.yaws_deg {
-        let query = descriptor.describe(yawed(&here, yaw_deg).view()).expect("describes the yawed scan");
+        let query = descriptor
+            .describe(yawed(&here, yaw_deg).view())
+            .expect("describes the yawed scan");
         let found = index.query(&query, 1, &|_| false).expect("query");
-        assert_eq!(found[0].id, here_id, "yaw {yaw_deg}°: the same place is retrieved first");
+        assert_eq!(
+            found[0].id, here_id,
+            "yaw {yaw_deg}°: the same place is retrieved first"
+        );
         let ratio = found[0].distance / distance_to_other;
-        assert!(ratio <= expect.max_yawed_over_other, "yaw {yaw_deg}°: distance {:.4} is {ratio:.2} of another place's", found[0].distance);
+        assert!(
+            ratio <= expect.max_yawed_over_other,
+            "yaw {yaw_deg}°: distance {:.4} is {ratio:.2} of another place's",
+            found[0].distance
+        );
         if let Some(tolerance) = expect.yaw_hint_tolerance_deg {
             let hint = found[0].yaw_hint_rad.expect("a yaw hint").to_degrees();
             // The hint is the yaw of candidate_from_query; the query is the candidate turned by +yaw.
             let error = angle_difference_deg(hint, -yaw_deg);
-            assert!(error <= tolerance, "yaw {yaw_deg}°: hint {hint:.1}° is {error:.1}° off");
+            assert!(
+                error <= tolerance,
+                "yaw {yaw_deg}°: hint {hint:.1}° is {error:.1}° off"
+            );
         }
     }
 
-    let excluded = index.query(&base, 2, &|id| id == here_id).expect("query with exclusion");
-    assert!(excluded.iter().all(|c| c.id != here_id), "excluded keyframes are not returned");
+    let excluded = index
+        .query(&base, 2, &|id| id == here_id)
+        .expect("query with exclusion");
+    assert!(
+        excluded.iter().all(|c| c.id != here_id),
+        "excluded keyframes are not returned"
+    );
     assert!(index.query(&base, 0, &|_| false).expect("k = 0").is_empty());
 
     let degenerate = [
         Cloud::default(),
         Cloud::new(vec![Point::new(10.0, 0.0, 0.0); 500]),
-        Cloud::new((0..500).map(|i| Point::new((i as f32).cos() * 20.0, (i as f32).sin() * 20.0, -60.0)).collect()),
+        Cloud::new(
+            (0..500)
+                .map(|i| Point::new((i as f32).cos() * 20.0, (i as f32).sin() * 20.0, -60.0))
+                .collect(),
+        ),
     ];
     for (case, cloud) in degenerate.iter().enumerate() {
         if let Ok(buf) = descriptor.describe(CloudView::from(cloud)) {
-            assert!(buf.values.iter().all(|v| v.is_finite()), "degenerate case {case}: NaN in the descriptor");
+            assert!(
+                buf.values.iter().all(|v| v.is_finite()),
+                "degenerate case {case}: NaN in the descriptor"
+            );
             if let Ok(found) = index.query(&buf, 1, &|_| false) {
-                assert!(found.iter().all(|c| c.distance.is_finite()), "degenerate case {case}: NaN distance");
+                assert!(
+                    found.iter().all(|c| c.distance.is_finite()),
+                    "degenerate case {case}: NaN distance"
+                );
             }
         }
     }

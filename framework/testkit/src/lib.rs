@@ -15,6 +15,9 @@
 //! The synthetic data comes from [`scene`]: a deterministic outdoor-like scene sampled anew for every
 //! scan, so no two scans share points.
 
+// This crate is test support: its functions are assertions, and failing loudly is their job.
+#![allow(clippy::expect_used, clippy::panic)]
+
 pub mod backend;
 pub mod descriptor;
 pub mod odometry;
@@ -29,5 +32,8 @@ use skid_core::Pose;
 /// Translation (metres) and rotation (degrees) between two poses.
 pub fn pose_error(a: &Pose, b: &Pose) -> (f64, f64) {
     let delta = a.inverse() * b;
-    (delta.translation.vector.norm(), delta.rotation.angle().to_degrees())
+    (
+        delta.translation.vector.norm(),
+        delta.rotation.angle().to_degrees(),
+    )
 }

@@ -19,7 +19,10 @@ pub struct OdometryExpectations {
 
 impl Default for OdometryExpectations {
     fn default() -> Self {
-        Self { max_translation_error_m: 0.3, max_rotation_error_deg: 1.0 }
+        Self {
+            max_translation_error_m: 0.3,
+            max_rotation_error_deg: 1.0,
+        }
     }
 }
 
@@ -55,7 +58,9 @@ pub fn check_odometry(mut make: impl FnMut() -> Box<dyn Odometry>, expect: Odome
     let scans = 41;
     let mut last = Pose::identity();
     for index in 0..scans {
-        let update = odometry.register(&synthetic_scan(&scene, index)).expect("a good scan registers");
+        let update = odometry
+            .register(&synthetic_scan(&scene, index))
+            .expect("a good scan registers");
         if index == 0 {
             let keyframe = update.keyframe.as_ref().expect("the first scan is a keyframe");
             assert!(!keyframe.cloud.is_empty(), "the first keyframe has points");
@@ -81,15 +86,40 @@ pub fn check_odometry(mut make: impl FnMut() -> Box<dyn Odometry>, expect: Odome
     assert!(odometry.register(&empty).is_err(), "an empty scan is an error");
     let mut tiny = synthetic_scan(&scene, 1);
     tiny.points.truncate(5);
-    assert!(odometry.register(&tiny).is_err(), "a scan with 5 points is an error");
+    assert!(
+        odometry.register(&tiny).is_err(),
+        "a scan with 5 points is an error"
+    );
     let mut backwards = synthetic_scan(&scene, 1);
     backwards.stamp_nanos = 0;
-    assert!(odometry.register(&backwards).is_err(), "a stamp that does not advance is an error");
+    assert!(
+        odometry.register(&backwards).is_err(),
+        "a stamp that does not advance is an error"
+    );
     let mut with_nan = synthetic_scan(&scene, 1);
-    with_nan.points.push(RawPoint::new(f32::NAN, 0.0, 0.0, 0.0, 0.0, 0));
-    with_nan.points.push(RawPoint::new(1.0, f32::INFINITY, 0.0, 0.0, 0.0, 0));
-    let update = odometry.register(&with_nan).expect("NaN points are dropped, the scan still registers");
-    assert!(update.world_from_sensor.translation.vector.iter().all(|v| v.is_finite()));
-    let (translation_m, _) = pose_error(&(first_truth.inverse() * synthetic_pose(1)), &update.world_from_sensor);
-    assert!(translation_m < 0.2, "after rejected scans the estimate is intact (off by {translation_m:.3} m)");
+    with_nan
+        .points
+        .push(RawPoint::new(f32::NAN, 0.0, 0.0, 0.0, 0.0, 0));
+    with_nan
+        .points
+        .push(RawPoint::new(1.0, f32::INFINITY, 0.0, 0.0, 0.0, 0));
+    let update = odometry
+        .register(&with_nan)
+        .expect("NaN points are dropped, the scan still registers");
+    assert!(
+        update
+            .world_from_sensor
+            .translation
+            .vector
+            .iter()
+            .all(|v| v.is_finite())
+    );
+    let (translation_m, _) = pose_error(
+        &(first_truth.inverse() * synthetic_pose(1)),
+        &update.world_from_sensor,
+    );
+    assert!(
+        translation_m < 0.2,
+        "after rejected scans the estimate is intact (off by {translation_m:.3} m)"
+    );
 }

@@ -28,20 +28,39 @@ impl Scene {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut blocks = Vec::new();
         for _ in 0..40 {
-            let centre = Point3::new(rng.random_range(-extent_m..extent_m), rng.random_range(-extent_m..extent_m), 0.0);
+            let centre = Point3::new(
+                rng.random_range(-extent_m..extent_m),
+                rng.random_range(-extent_m..extent_m),
+                0.0,
+            );
             if centre.coords.xy().norm() < 6.0 {
                 continue;
             }
-            let half = Vector3::new(rng.random_range(0.5..6.0), rng.random_range(0.5..6.0), rng.random_range(0.5..4.0));
-            blocks.push(Block { min: centre - Vector3::new(half.x, half.y, 0.0), max: centre + Vector3::new(half.x, half.y, 2.0 * half.z) });
+            let half = Vector3::new(
+                rng.random_range(0.5..6.0),
+                rng.random_range(0.5..6.0),
+                rng.random_range(0.5..4.0),
+            );
+            blocks.push(Block {
+                min: centre - Vector3::new(half.x, half.y, 0.0),
+                max: centre + Vector3::new(half.x, half.y, 2.0 * half.z),
+            });
         }
         let poles = (0..30)
             .map(|_| {
-                let base = Point3::new(rng.random_range(-extent_m..extent_m), rng.random_range(-extent_m..extent_m), 0.0);
+                let base = Point3::new(
+                    rng.random_range(-extent_m..extent_m),
+                    rng.random_range(-extent_m..extent_m),
+                    0.0,
+                );
                 (base, rng.random_range(0.1..0.4), rng.random_range(2.0..8.0))
             })
             .collect();
-        Self { blocks, poles, extent_m }
+        Self {
+            blocks,
+            poles,
+            extent_m,
+        }
     }
 
     /// Ground height at (x, y).
@@ -69,26 +88,47 @@ impl Scene {
                     Point3::new(x, y, self.ground_z(x, y))
                 }
                 5..=8 => {
-                    let Some(block) = self.blocks.get(rng.random_range(0..self.blocks.len().max(1))) else { continue };
+                    let Some(block) = self.blocks.get(rng.random_range(0..self.blocks.len().max(1))) else {
+                        continue;
+                    };
                     sample_block(block, &mut rng)
                 }
                 _ => {
-                    let Some(&(base, radius, height)) = self.poles.get(rng.random_range(0..self.poles.len().max(1))) else { continue };
+                    let Some(&(base, radius, height)) =
+                        self.poles.get(rng.random_range(0..self.poles.len().max(1)))
+                    else {
+                        continue;
+                    };
                     let a = rng.random_range(0.0..std::f64::consts::TAU);
-                    Point3::new(base.x + radius * a.cos(), base.y + radius * a.sin(), rng.random_range(0.0..height))
+                    Point3::new(
+                        base.x + radius * a.cos(),
+                        base.y + radius * a.sin(),
+                        rng.random_range(0.0..height),
+                    )
                 }
             };
             if (world.coords - centre).norm() > range_m || world.x.abs() > self.extent_m * 1.2 {
                 continue;
             }
             let local = sensor_from_world * world;
-            points.push(Point::with_intensity(local.x as f32, local.y as f32, local.z as f32, 0.5));
+            points.push(Point::with_intensity(
+                local.x as f32,
+                local.y as f32,
+                local.z as f32,
+                0.5,
+            ));
         }
         Cloud::new(points)
     }
 
     /// Like [`Scene::sample`], as raw scan points with zero time offsets.
-    pub fn sample_raw(&self, world_from_sensor: &Pose, count: usize, range_m: f64, seed: u64) -> Vec<RawPoint> {
+    pub fn sample_raw(
+        &self,
+        world_from_sensor: &Pose,
+        count: usize,
+        range_m: f64,
+        seed: u64,
+    ) -> Vec<RawPoint> {
         self.sample(world_from_sensor, count, range_m, seed)
             .points
             .iter()

@@ -17,7 +17,8 @@ fn receive(transport: &mut dyn Transport, within: Duration) -> Vec<Datagram> {
 /// Runs the transport contract on two connected endpoints.
 pub fn check_transport(a: &mut dyn Transport, b: &mut dyn Transport) {
     let payload: Vec<u8> = (0..10_000u32).map(|i| (i % 251) as u8).collect();
-    a.send(Destination::Robot(b.local_robot()), &payload).expect("send to one peer");
+    a.send(Destination::Robot(b.local_robot()), &payload)
+        .expect("send to one peer");
     let received = receive(b, Duration::from_secs(1));
     assert_eq!(received.len(), 1, "one message arrives");
     assert_eq!(received[0].from, a.local_robot());
@@ -26,5 +27,8 @@ pub fn check_transport(a: &mut dyn Transport, b: &mut dyn Transport) {
     let received = receive(a, Duration::from_secs(1));
     assert_eq!(received.len(), 1);
     assert_eq!(received[0].payload, b"hello");
-    assert!(b.peers().iter().any(|peer| peer.robot == a.local_robot()), "the receiver knows the sender");
+    assert!(
+        b.peers().iter().any(|peer| peer.robot == a.local_robot()),
+        "the receiver knows the sender"
+    );
 }

@@ -32,7 +32,11 @@ mod tests {
         for info in registry.catalogue() {
             registry.validate(info.slot, &info.name, &info.defaults).unwrap();
         }
-        assert!(registry.names(Slot::Odometry).contains(&"ground_truth".to_owned()));
+        assert!(
+            registry
+                .names(Slot::Odometry)
+                .contains(&"ground_truth".to_owned())
+        );
         assert!(registry.names(Slot::Source).contains(&"kitti".to_owned()));
     }
 }

@@ -58,7 +58,9 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     let entry = PluginEntry::new(
         "ground_truth",
         "Ground-truth poses from the source, with optional noise and drift (for isolating later stages)",
-        |config: GroundTruthConfig, context: &PluginContext| Ok(Box::new(GroundTruthOdometry::new(config, context)?) as Box<dyn Odometry>),
+        |config: GroundTruthConfig, context: &PluginContext| {
+            Ok(Box::new(GroundTruthOdometry::new(config, context)?) as Box<dyn Odometry>)
+        },
     )?;
     registry.odometry.register(entry)
 }
@@ -82,14 +84,22 @@ pub const MIN_SCAN_POINTS: usize = 10;
 impl GroundTruthOdometry {
     pub fn new(config: GroundTruthConfig, context: &PluginContext) -> PluginResult<Self> {
         let normal = |std: f64, what: &str| {
-            let bad = || PluginError::failed("ground_truth", format!("{what} must be a finite, non-negative number, got {std}"));
+            let bad = || {
+                PluginError::failed(
+                    "ground_truth",
+                    format!("{what} must be a finite, non-negative number, got {std}"),
+                )
+            };
             if !(std.is_finite() && std >= 0.0) {
                 return Err(bad());
             }
             Normal::new(0.0, std).map_err(|_| bad())
         };
         if !(config.scan_period_s.is_finite() && config.scan_period_s > 0.0) {
-            return Err(PluginError::failed("ground_truth", "scan_period_s must be positive"));
+            return Err(PluginError::failed(
+                "ground_truth",
+                "scan_period_s must be positive",
+            ));
         }
         Ok(Self {
             translation_noise: normal(config.translation_noise_m, "translation_noise_m")?,
@@ -109,7 +119,8 @@ impl GroundTruthOdometry {
         let translation = motion.translation.vector * (1.0 + self.config.scale_drift_percent / 100.0)
             + Vector3::from_fn(|_, _| self.translation_noise.sample(&mut self.rng));
         let yaw_drift = (self.config.yaw_drift_deg_per_m * distance_m).to_radians();
-        let noise = Vector3::from_fn(|_, _| self.rotation_noise.sample(&mut self.rng)) + Vector3::new(0.0, 0.0, yaw_drift);
+        let noise = Vector3::from_fn(|_, _| self.rotation_noise.sample(&mut self.rng))
+            + Vector3::new(0.0, 0.0, yaw_drift);
         let rotation = motion.rotation * UnitQuaternion::from_scaled_axis(noise);
         Pose::from_parts(Translation3::from(translation), rotation)
     }
@@ -125,7 +136,10 @@ impl Odometry for GroundTruthOdometry {
                 scan.sequence, scan.robot
             )));
         }
-        if let Some(previous) = self.previous_stamp_nanos.filter(|&previous| scan.stamp_nanos <= previous) {
+        if let Some(previous) = self
+            .previous_stamp_nanos
+            .filter(|&previous| scan.stamp_nanos <= previous)
+        {
             return Err(PluginError::InvalidInput(format!(
                 "scan {} of {}: stamp {} ns does not advance past the previous scan's {previous} ns",
                 scan.sequence, scan.robot, scan.stamp_nanos
@@ -147,16 +161,28 @@ impl Odometry for GroundTruthOdometry {
         };
         self.previous = Some((ground_truth, world_from_sensor));
         self.previous_stamp_nanos = Some(scan.stamp_nanos);
-        let keyframe = self.trigger.check(scan.stamp_nanos, &world_from_sensor).map(|index| {
-            let deskewed = deskew_constant_velocity(&scan.points, &previous_from_current, self.config.scan_period_s);
-            Keyframe {
-                id: KeyframeId { robot: self.context.robot, index },
-                stamp_nanos: scan.stamp_nanos,
-                world_from_sensor,
-                cloud: Cloud::new(voxel_downsample(&deskewed, self.config.keyframe_voxel_m as f32)),
-            }
-        });
-        Ok(OdometryUpdate { stamp_nanos: scan.stamp_nanos, world_from_sensor, previous_from_current, keyframe })
+        let keyframe = self
+            .trigger
+            .check(scan.stamp_nanos, &world_from_sensor)
+            .map(|index| {
+                let deskewed =
+                    deskew_constant_velocity(&scan.points, &previous_from_current, self.config.scan_period_s);
+                Keyframe {
+                    id: KeyframeId {
+                        robot: self.context.robot,
+                        index,
+                    },
+                    stamp_nanos: scan.stamp_nanos,
+                    world_from_sensor,
+                    cloud: Cloud::new(voxel_downsample(&deskewed, self.config.keyframe_voxel_m as f32)),
+                }
+            });
+        Ok(OdometryUpdate {
+            stamp_nanos: scan.stamp_nanos,
+            world_from_sensor,
+            previous_from_current,
+            keyframe,
+        })
     }
 }
 
@@ -177,7 +203,8 @@ mod tests {
 
     #[test]
     fn without_noise_reports_motion_from_the_origin() {
-        let mut odometry = GroundTruthOdometry::new(GroundTruthConfig::default(), &PluginContext::default()).unwrap();
+        let mut odometry =
+            GroundTruthOdometry::new(GroundTruthConfig::default(), &PluginContext::default()).unwrap();
         let first = odometry.register(&scan(0, 10.0)).unwrap();
         assert_eq!(first.world_from_sensor, Pose::identity());
         assert_eq!(first.keyframe.as_ref().map(|k| k.id.index), Some(0));
@@ -190,7 +217,10 @@ mod tests {
 
     #[test]
     fn drift_lengthens_the_path() {
-        let config = GroundTruthConfig { scale_drift_percent: 10.0, ..GroundTruthConfig::default() };
+        let config = GroundTruthConfig {
+            scale_drift_percent: 10.0,
+            ..GroundTruthConfig::default()
+        };
         let mut odometry = GroundTruthOdometry::new(config, &PluginContext::default()).unwrap();
         odometry.register(&scan(0, 0.0)).unwrap();
         let update = odometry.register(&scan(1, 10.0)).unwrap();
@@ -199,7 +229,8 @@ mod tests {
 
     #[test]
     fn missing_ground_truth_is_a_clear_error() {
-        let mut odometry = GroundTruthOdometry::new(GroundTruthConfig::default(), &PluginContext::default()).unwrap();
+        let mut odometry =
+            GroundTruthOdometry::new(GroundTruthConfig::default(), &PluginContext::default()).unwrap();
         let mut bad = scan(0, 0.0);
         bad.ground_truth_world_from_sensor = None;
         let error = odometry.register(&bad).unwrap_err().to_string();
@@ -209,14 +240,25 @@ mod tests {
     #[test]
     fn conformance() {
         skid_testkit::odometry::check_odometry(
-            || Box::new(GroundTruthOdometry::new(GroundTruthConfig::default(), &PluginContext::default()).unwrap()),
-            skid_testkit::odometry::OdometryExpectations { max_translation_error_m: 1e-9, max_rotation_error_deg: 1e-9 },
+            || {
+                Box::new(
+                    GroundTruthOdometry::new(GroundTruthConfig::default(), &PluginContext::default())
+                        .unwrap(),
+                )
+            },
+            skid_testkit::odometry::OdometryExpectations {
+                max_translation_error_m: 1e-9,
+                max_rotation_error_deg: 1e-9,
+            },
         );
     }
 
     #[test]
     fn negative_noise_is_refused() {
-        let config = GroundTruthConfig { translation_noise_m: -1.0, ..GroundTruthConfig::default() };
+        let config = GroundTruthConfig {
+            translation_noise_m: -1.0,
+            ..GroundTruthConfig::default()
+        };
         assert!(GroundTruthOdometry::new(config, &PluginContext::default()).is_err());
     }
 }

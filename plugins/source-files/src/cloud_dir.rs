@@ -55,7 +55,12 @@ pub struct CloudDirSource {
 
 impl CloudDirSource {
     pub fn open(config: CloudDirConfig, context: &PluginContext) -> PluginResult<Self> {
-        let folder = resolve_path(Path::new(&config.path.to_string_lossy().replace("{robot}", &context.robot.0.to_string())));
+        let folder = resolve_path(Path::new(
+            &config
+                .path
+                .to_string_lossy()
+                .replace("{robot}", &context.robot.0.to_string()),
+        ));
         let entries = std::fs::read_dir(&folder).map_err(|e| PluginError::io(&folder, e))?;
         let mut files: Vec<PathBuf> = entries
             .filter_map(|entry| entry.ok().map(|e| e.path()))
@@ -63,7 +68,10 @@ impl CloudDirSource {
             .collect();
         files.sort();
         if files.is_empty() {
-            return Err(PluginError::InvalidInput(format!("{}: no .pcd or .ply files", folder.display())));
+            return Err(PluginError::InvalidInput(format!(
+                "{}: no .pcd or .ply files",
+                folder.display()
+            )));
         }
         let trajectory = if config.trajectory.is_empty() {
             None
@@ -71,29 +79,58 @@ impl CloudDirSource {
             let path = folder.join(&config.trajectory);
             let poses = skid_io::trajectory::read_tum(&path).map_err(io_error)?;
             if poses.len() < files.len() {
-                return Err(PluginError::InvalidInput(format!("{}: {} poses for {} clouds", path.display(), poses.len(), files.len())));
+                return Err(PluginError::InvalidInput(format!(
+                    "{}: {} poses for {} clouds",
+                    path.display(),
+                    poses.len(),
+                    files.len()
+                )));
             }
             Some(poses)
         };
         if !(config.period_s.is_finite() && config.period_s > 0.0) {
             return Err(PluginError::failed("cloud_dir", "period_s must be positive"));
         }
-        let mut range = segment(files.len(), context.robot.0 as usize, context.fleet_size as usize, &config.split);
+        let mut range = segment(
+            files.len(),
+            context.robot.0 as usize,
+            context.fleet_size as usize,
+            &config.split,
+        );
         if config.max_scans > 0 {
             range.end = range.end.min(range.start + config.max_scans);
         }
-        let options = CloudReadOptions { drop_zero: config.drop_zero_points, ..CloudReadOptions::default() };
-        Ok(Self { robot: context.robot, files, trajectory, period_s: config.period_s, options, next: range.start, end: range.end, sequence: 0 })
+        let options = CloudReadOptions {
+            drop_zero: config.drop_zero_points,
+            ..CloudReadOptions::default()
+        };
+        Ok(Self {
+            robot: context.robot,
+            files,
+            trajectory,
+            period_s: config.period_s,
+            options,
+            next: range.start,
+            end: range.end,
+            sequence: 0,
+        })
     }
 
     fn read_points(&self, path: &Path) -> PluginResult<Vec<RawPoint>> {
         let is_pcd = path.extension().is_some_and(|ext| ext == "pcd");
         let points = if is_pcd {
-            skid_io::pcd::read_pcd(path, self.options).map_err(io_error)?.points
+            skid_io::pcd::read_pcd(path, self.options)
+                .map_err(io_error)?
+                .points
         } else {
-            skid_io::ply::read_ply(path, self.options).map_err(io_error)?.points
+            skid_io::ply::read_ply(path, self.options)
+                .map_err(io_error)?
+                .points
         };
-        Ok(points.iter().map(|p| RawPoint::new(p.x, p.y, p.z, p.intensity, 0.0, RawPoint::UNKNOWN_RING)).collect())
+        Ok(points
+            .iter()
+            .map(|p| RawPoint::new(p.x, p.y, p.z, p.intensity, 0.0, RawPoint::UNKNOWN_RING))
+            .collect())
     }
 }
 

@@ -68,7 +68,12 @@ pub struct KittiSource {
 impl KittiSource {
     /// Opens the folder and reads its index files; scans are read lazily.
     pub fn open(config: KittiConfig, context: &PluginContext) -> PluginResult<Self> {
-        let folder = resolve_path(Path::new(&config.path.to_string_lossy().replace("{robot}", &context.robot.0.to_string())));
+        let folder = resolve_path(Path::new(
+            &config
+                .path
+                .to_string_lossy()
+                .replace("{robot}", &context.robot.0.to_string()),
+        ));
         let scans = list_scans(&folder.join("velodyne"))?;
         let times_path = folder.join("times.txt");
         let stamps_s = if times_path.is_file() {
@@ -86,12 +91,29 @@ impl KittiSource {
             (0..scans.len()).map(|i| i as f64 * 0.1).collect()
         };
         let ground_truth = read_ground_truth(&folder, &config, scans.len())?;
-        let mut range = segment(scans.len(), context.robot.0 as usize, context.fleet_size as usize, &config.split);
+        let mut range = segment(
+            scans.len(),
+            context.robot.0 as usize,
+            context.fleet_size as usize,
+            &config.split,
+        );
         if config.max_scans > 0 {
             range.end = range.end.min(range.start + config.max_scans);
         }
-        let options = CloudReadOptions { drop_zero: config.drop_zero_points, ..CloudReadOptions::default() };
-        Ok(Self { robot: context.robot, scans, stamps_s, ground_truth, options, next: range.start, end: range.end, sequence: 0 })
+        let options = CloudReadOptions {
+            drop_zero: config.drop_zero_points,
+            ..CloudReadOptions::default()
+        };
+        Ok(Self {
+            robot: context.robot,
+            scans,
+            stamps_s,
+            ground_truth,
+            options,
+            next: range.start,
+            end: range.end,
+            sequence: 0,
+        })
     }
 }
 
@@ -102,7 +124,11 @@ impl Source for KittiSource {
         }
         let index = self.next;
         let cloud = kitti::read_kitti_bin(&self.scans[index], self.options).map_err(io_error)?;
-        let points = cloud.points.iter().map(|p| RawPoint::new(p.x, p.y, p.z, p.intensity, 0.0, RawPoint::UNKNOWN_RING)).collect();
+        let points = cloud
+            .points
+            .iter()
+            .map(|p| RawPoint::new(p.x, p.y, p.z, p.intensity, 0.0, RawPoint::UNKNOWN_RING))
+            .collect();
         let scan = Scan {
             robot: self.robot,
             sequence: self.sequence,
@@ -130,20 +156,31 @@ pub(crate) fn list_scans(folder: &Path) -> PluginResult<Vec<PathBuf>> {
         .collect();
     scans.sort();
     if scans.is_empty() {
-        return Err(PluginError::InvalidInput(format!("{}: no .bin scans", folder.display())));
+        return Err(PluginError::InvalidInput(format!(
+            "{}: no .bin scans",
+            folder.display()
+        )));
     }
     Ok(scans)
 }
 
 /// Ground truth in the LiDAR frame, if the folder has it.
-fn read_ground_truth(folder: &Path, config: &KittiConfig, scan_count: usize) -> PluginResult<Option<Vec<Pose>>> {
+fn read_ground_truth(
+    folder: &Path,
+    config: &KittiConfig,
+    scan_count: usize,
+) -> PluginResult<Option<Vec<Pose>>> {
     let poses_path = folder.join(&config.poses_file);
     if config.poses_file.is_empty() || !poses_path.is_file() {
         return Ok(None);
     }
     let poses = trajectory::read_kitti_poses(&poses_path).map_err(io_error)?;
     if poses.len() < scan_count {
-        return Err(PluginError::InvalidInput(format!("{}: {} poses for {scan_count} scans", poses_path.display(), poses.len())));
+        return Err(PluginError::InvalidInput(format!(
+            "{}: {} poses for {scan_count} scans",
+            poses_path.display(),
+            poses.len()
+        )));
     }
     let poses = match config.poses_frame {
         PosesFrame::Lidar => poses,
@@ -151,7 +188,10 @@ fn read_ground_truth(folder: &Path, config: &KittiConfig, scan_count: usize) -> 
             let calib = kitti::read_kitti_calib(folder.join("calib.txt")).map_err(io_error)?;
             let cam_from_lidar = calib.cam0_from_velodyne;
             let lidar_from_cam = cam_from_lidar.inverse();
-            poses.iter().map(|world_cam_from_cam| lidar_from_cam * world_cam_from_cam * cam_from_lidar).collect()
+            poses
+                .iter()
+                .map(|world_cam_from_cam| lidar_from_cam * world_cam_from_cam * cam_from_lidar)
+                .collect()
         }
     };
     Ok(Some(poses))

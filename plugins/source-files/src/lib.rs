@@ -41,7 +41,11 @@ pub(crate) fn resolve_path(path: &std::path::Path) -> std::path::PathBuf {
         return path.to_owned();
     }
     let under_data = skid_io::data_dir().join(path);
-    if under_data.exists() { under_data } else { path.to_owned() }
+    if under_data.exists() {
+        under_data
+    } else {
+        path.to_owned()
+    }
 }
 
 /// Converts a skid-io error into a plugin error.

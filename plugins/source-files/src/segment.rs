@@ -29,7 +29,10 @@ mod tests {
 
     #[test]
     fn segments_cover_the_sequence_with_overlap() {
-        let split = SplitConfig { enabled: true, overlap_scans: 2 };
+        let split = SplitConfig {
+            enabled: true,
+            overlap_scans: 2,
+        };
         assert_eq!(segment(10, 0, 3, &split), 0..4);
         assert_eq!(segment(10, 1, 3, &split), 2..8);
         assert_eq!(segment(10, 2, 3, &split), 6..10);
@@ -39,7 +42,10 @@ mod tests {
 
     #[test]
     fn more_robots_than_scans_gives_empty_tails() {
-        let split = SplitConfig { enabled: true, overlap_scans: 0 };
+        let split = SplitConfig {
+            enabled: true,
+            overlap_scans: 0,
+        };
         assert_eq!(segment(2, 3, 4, &split), 2..2);
     }
 }

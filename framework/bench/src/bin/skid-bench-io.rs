@@ -30,7 +30,11 @@ fn row(format: &str, operation: &str, counts: &[usize], timings_ms: &[f64]) -> R
         points_or_lines: total,
         median_ms: timing.median_ms,
         p90_ms: timing.p90_ms,
-        mpoints_per_s: if total_ms > 0.0 { total as f64 / total_ms / 1e3 } else { 0.0 },
+        mpoints_per_s: if total_ms > 0.0 {
+            total as f64 / total_ms / 1e3
+        } else {
+            0.0
+        },
     }
 }
 
@@ -41,22 +45,33 @@ fn main() -> Result<()> {
     let scratch = tempfile::tempdir()?;
 
     let mut scans: Vec<_> = std::fs::read_dir(data.join("kitti_00_lidar_frames_0000_0015/velodyne"))
-        .with_context(|| format!("KITTI frames under {} (set {})", data.display(), skid_io::DATA_DIR_VAR))?
+        .with_context(|| {
+            format!(
+                "KITTI frames under {} (set {})",
+                data.display(),
+                skid_io::DATA_DIR_VAR
+            )
+        })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .collect();
     scans.sort();
-    let (mut counts, mut read_ms, mut pcd_w, mut pcd_r, mut ply_w, mut ply_r) = (vec![], vec![], vec![], vec![], vec![], vec![]);
+    let (mut counts, mut read_ms, mut pcd_w, mut pcd_r, mut ply_w, mut ply_r) =
+        (vec![], vec![], vec![], vec![], vec![], vec![]);
     for scan in &scans {
         let (cloud, ms) = time_ms(|| kitti::read_kitti_bin(scan, CloudReadOptions::default()));
         let cloud = cloud?;
         counts.push(cloud.points.len());
         read_ms.push(ms);
         let pcd_path = scratch.path().join("scan.pcd");
-        let options = pcd::PcdWriteOptions { data: pcd::PcdData::BinaryCompressed, ..Default::default() };
+        let options = pcd::PcdWriteOptions {
+            data: pcd::PcdData::BinaryCompressed,
+            ..Default::default()
+        };
         pcd_w.push(time_ms(|| pcd::write_pcd(&pcd_path, &cloud.points, &options)).1);
         pcd_r.push(time_ms(|| pcd::read_pcd(&pcd_path, CloudReadOptions::default())).1);
         let ply_path = scratch.path().join("scan.ply");
-        ply_w.push(time_ms(|| ply::write_ply(&ply_path, &cloud.points, ply::PlyFormat::BinaryLittleEndian)).1);
+        ply_w
+            .push(time_ms(|| ply::write_ply(&ply_path, &cloud.points, ply::PlyFormat::BinaryLittleEndian)).1);
         ply_r.push(time_ms(|| ply::read_ply(&ply_path, CloudReadOptions::default())).1);
     }
     report.push(&row("kitti .bin", "read", &counts, &read_ms))?;

@@ -33,7 +33,13 @@ pub struct PluginContext {
 
 impl Default for PluginContext {
     fn default() -> Self {
-        Self { robot: RobotId(0), fleet_size: 1, threads: 1, seed: 0, output_dir: None }
+        Self {
+            robot: RobotId(0),
+            fleet_size: 1,
+            threads: 1,
+            seed: 0,
+            output_dir: None,
+        }
     }
 }
 

@@ -23,7 +23,11 @@ pub struct ParamError {
 
 impl ParamError {
     fn describe(&self) -> String {
-        if self.path.is_empty() { self.message.clone() } else { format!("key `{}`: {}", self.path, self.message) }
+        if self.path.is_empty() {
+            self.message.clone()
+        } else {
+            format!("key `{}`: {}", self.path, self.message)
+        }
     }
 }
 
@@ -35,7 +39,10 @@ impl Params {
 
     /// Parameters from TOML text (used by tests and by dynamic plugins).
     pub fn from_toml_str(text: &str) -> Result<Self, ParamError> {
-        let table = text.parse::<toml::Table>().map_err(|e| ParamError { path: String::new(), message: e.to_string() })?;
+        let table = text.parse::<toml::Table>().map_err(|e| ParamError {
+            path: String::new(),
+            message: e.to_string(),
+        })?;
         Ok(Self::new(table))
     }
 
@@ -47,7 +54,10 @@ impl Params {
                 path: String::new(),
                 message: format!("parameters must serialise to a table, not a {}", other.type_str()),
             }),
-            Err(e) => Err(ParamError { path: String::new(), message: e.to_string() }),
+            Err(e) => Err(ParamError {
+                path: String::new(),
+                message: e.to_string(),
+            }),
         }
     }
 
@@ -62,7 +72,10 @@ impl Params {
         serde_path_to_error::deserialize::<_, C>(value).map_err(|error| {
             let path = error.path().to_string();
             let message = error.inner().to_string();
-            ParamError { path: if path == "." { String::new() } else { path }, message }
+            ParamError {
+                path: if path == "." { String::new() } else { path },
+                message,
+            }
         })
     }
 
@@ -101,7 +114,13 @@ mod tests {
     fn missing_keys_take_defaults() {
         let params = Params::from_toml_str("num_sectors = 60").unwrap();
         let parsed: Example = params.parse().unwrap();
-        assert_eq!(parsed, Example { num_sectors: 60, ..Example::default() });
+        assert_eq!(
+            parsed,
+            Example {
+                num_sectors: 60,
+                ..Example::default()
+            }
+        );
     }
 
     #[test]

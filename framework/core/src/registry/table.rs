@@ -106,7 +106,10 @@ pub struct SlotTable<T: ?Sized> {
 impl<T: ?Sized + 'static> SlotTable<T> {
     /// An empty table for `slot`.
     pub fn new(slot: Slot) -> Self {
-        Self { slot, entries: BTreeMap::new() }
+        Self {
+            slot,
+            entries: BTreeMap::new(),
+        }
     }
 
     pub fn slot(&self) -> Slot {
@@ -116,7 +119,10 @@ impl<T: ?Sized + 'static> SlotTable<T> {
     /// Adds a plugin; a second plugin with the same name is refused.
     pub fn register(&mut self, entry: PluginEntry<T>) -> Result<(), PluginError> {
         if self.entries.contains_key(&entry.name) {
-            return Err(PluginError::DuplicatePlugin { slot: self.slot, name: entry.name });
+            return Err(PluginError::DuplicatePlugin {
+                slot: self.slot,
+                name: entry.name,
+            });
         }
         self.entries.insert(entry.name.clone(), entry);
         Ok(())
@@ -132,7 +138,12 @@ impl<T: ?Sized + 'static> SlotTable<T> {
     }
 
     /// Builds the plugin called `name`.
-    pub fn create(&self, name: &str, params: &Params, context: &PluginContext) -> Result<Box<T>, PluginError> {
+    pub fn create(
+        &self,
+        name: &str,
+        params: &Params,
+        context: &PluginContext,
+    ) -> Result<Box<T>, PluginError> {
         self.get(name)?.construct(params, context)
     }
 

@@ -88,7 +88,10 @@ pub struct OptimizeBudget {
 
 impl Default for OptimizeBudget {
     fn default() -> Self {
-        Self { max_iterations: 100, max_duration: Duration::from_secs(10) }
+        Self {
+            max_iterations: 100,
+            max_duration: Duration::from_secs(10),
+        }
     }
 }
 

@@ -41,7 +41,9 @@ pub struct PreparedCloud {
 
 impl std::fmt::Debug for PreparedCloud {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PreparedCloud").field("points", &self.cloud.len()).finish_non_exhaustive()
+        f.debug_struct("PreparedCloud")
+            .field("points", &self.cloud.len())
+            .finish_non_exhaustive()
     }
 }
 
