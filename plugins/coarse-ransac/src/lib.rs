@@ -1,0 +1,1 @@
+//! SKiD coarse registration baseline: FPFH features with RANSAC.
