@@ -1,0 +1,1 @@
+//! SKiD Zenoh transport for real networks: peer mode, explicit endpoints, slim features.
