@@ -8,7 +8,7 @@ use figment::{Figment, Source};
 use skid_core::{Params, Registry, Slot};
 
 use crate::schema::{MAX_ROBOTS, NONE_PLUGIN, RawConfig, RawSlot};
-use crate::{ConfigError, DeploySection, RunSection};
+use crate::{ConfigError, DeploySection, LoopsSection, RunSection};
 
 /// One slot after validation: the selected plugin and its complete parameters (defaults filled in).
 #[derive(Clone, Debug, PartialEq)]
@@ -29,6 +29,7 @@ impl ResolvedSlot {
 pub struct ResolvedConfig {
     pub run: RunSection,
     pub deploy: DeploySection,
+    pub loops: LoopsSection,
     pub slots: BTreeMap<Slot, ResolvedSlot>,
 }
 
@@ -53,6 +54,9 @@ impl ResolvedConfig {
         }
         if let Ok(toml::Value::Table(deploy)) = toml::Value::try_from(&self.deploy) {
             root.insert("deploy".to_owned(), toml::Value::Table(deploy));
+        }
+        if let Ok(toml::Value::Table(loops)) = toml::Value::try_from(&self.loops) {
+            root.insert("loops".to_owned(), toml::Value::Table(loops));
         }
         for (slot, resolved) in &self.slots {
             let mut table = toml::Table::new();
@@ -103,6 +107,7 @@ pub(crate) fn resolve(
     Ok(ResolvedConfig {
         run: raw.run,
         deploy: raw.deploy,
+        loops: raw.loops,
         slots,
     })
 }

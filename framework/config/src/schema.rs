@@ -62,6 +62,48 @@ pub struct DeploySection {
     pub mode: DeployMode,
 }
 
+/// `[loops]`: how the runtime turns descriptors into loop candidates and loops into graph updates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LoopsSection {
+    /// Look for loops with the robot's own earlier keyframes.
+    pub intra_robot: bool,
+    /// Look for loops with peers' keyframes.
+    pub inter_robot: bool,
+    /// Candidates retrieved per query.
+    pub candidates: usize,
+    /// Largest descriptor distance accepted as a candidate; 0 uses the descriptor's own threshold.
+    pub max_descriptor_distance: f64,
+    /// The robot's own most recent keyframes excluded from intra-robot queries.
+    pub exclude_recent_keyframes: u32,
+    /// Standard deviation of odometry edges between keyframes: translation (m) per metre travelled,
+    /// with a floor of `odometry_sigma_min_m`, and rotation (degrees) per keyframe.
+    pub odometry_sigma_per_m: f64,
+    pub odometry_sigma_min_m: f64,
+    pub odometry_sigma_rotation_deg: f64,
+    /// Optimise the pose graph after this many new keyframes (and after every accepted loop).
+    pub optimize_every_keyframes: u32,
+    /// Iterations allowed per optimisation.
+    pub optimize_iterations: usize,
+}
+
+impl Default for LoopsSection {
+    fn default() -> Self {
+        Self {
+            intra_robot: true,
+            inter_robot: true,
+            candidates: 3,
+            max_descriptor_distance: 0.0,
+            exclude_recent_keyframes: 30,
+            odometry_sigma_per_m: 0.01,
+            odometry_sigma_min_m: 0.01,
+            odometry_sigma_rotation_deg: 0.2,
+            optimize_every_keyframes: 10,
+            optimize_iterations: 30,
+        }
+    }
+}
+
 /// A slot table as written: the selected plugin and the parameter tables of any plugins.
 #[derive(Clone, Debug, Deserialize)]
 pub(crate) struct RawSlot {
@@ -78,6 +120,8 @@ pub(crate) struct RawConfig {
     pub run: RunSection,
     #[serde(default)]
     pub deploy: DeploySection,
+    #[serde(default)]
+    pub loops: LoopsSection,
     pub source: Option<RawSlot>,
     pub odometry: Option<RawSlot>,
     pub descriptor: Option<RawSlot>,

@@ -1,43 +1,25 @@
 //! Conformance of back-ends (a drifting square closed by one loop) and [`ChainGraph`], a plain
 //! [`GraphView`] over per-robot odometry chains that verifier suites run against.
 
-use std::collections::BTreeMap;
-
-use nalgebra::{Matrix3, Matrix6, Vector3};
+use nalgebra::Vector3;
 use skid_core::slots::{Backend, GraphView, LoopClosure, OdometryMeasurement, OptimizeBudget, RelativePose};
 use skid_core::{Information, KeyframeId, LoopId, Pose};
+use skid_geometry::OdometryChains;
 
 use crate::pose_error;
 use crate::scene::planar_pose;
 
-/// Odometry chains per robot with first-order covariance propagation, and a list of loops.
+/// A plain [`GraphView`]: per-robot odometry chains (from `skid-geometry`) and a list of loops.
 #[derive(Clone, Debug, Default)]
 pub struct ChainGraph {
-    /// Per robot: poses by keyframe index (the odometry estimate).
-    poses: BTreeMap<KeyframeId, Pose>,
-    /// Covariance of each odometry step `index - 1 -> index`.
-    step_covariance: BTreeMap<KeyframeId, Information>,
+    chains: OdometryChains,
     loops: Vec<LoopClosure>,
-}
-
-/// The adjoint of SE(3) in (translation, rotation) order: maps a twist in the frame of `pose`'s source
-/// into its target frame.
-pub fn adjoint(pose: &Pose) -> Matrix6<f64> {
-    let rotation = pose.rotation.to_rotation_matrix().into_inner();
-    let t = pose.translation.vector;
-    let skew = Matrix3::new(0.0, -t.z, t.y, t.z, 0.0, -t.x, -t.y, t.x, 0.0);
-    let mut ad = Matrix6::zeros();
-    ad.fixed_view_mut::<3, 3>(0, 0).copy_from(&rotation);
-    ad.fixed_view_mut::<3, 3>(0, 3).copy_from(&(skew * rotation));
-    ad.fixed_view_mut::<3, 3>(3, 3).copy_from(&rotation);
-    ad
 }
 
 impl ChainGraph {
     /// Appends keyframe `id` at `world_from_sensor`, with the covariance of the step from the previous one.
     pub fn push(&mut self, id: KeyframeId, world_from_sensor: Pose, step_covariance: Information) {
-        self.poses.insert(id, world_from_sensor);
-        self.step_covariance.insert(id, step_covariance);
+        self.chains.insert(id, world_from_sensor, step_covariance);
     }
 
     /// Records an accepted loop.
@@ -48,52 +30,15 @@ impl ChainGraph {
 
 impl GraphView for ChainGraph {
     fn pose(&self, id: KeyframeId) -> Option<Pose> {
-        self.poses.get(&id).copied()
+        self.chains.pose(id)
     }
 
     fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
-        if target.robot != source.robot {
-            return None;
-        }
-        let target_pose = self.poses.get(&target)?;
-        let source_pose = self.poses.get(&source)?;
-        let (low, high) = if target.index <= source.index {
-            (target.index, source.index)
-        } else {
-            (source.index, target.index)
-        };
-        // Covariance of low_from_high: the steps' covariances moved into the low frame and summed.
-        let low_pose = self.poses.get(&KeyframeId {
-            robot: target.robot,
-            index: low,
-        })?;
-        let mut covariance = Matrix6::zeros();
-        for index in low + 1..=high {
-            let id = KeyframeId {
-                robot: target.robot,
-                index,
-            };
-            let previous = self.poses.get(&KeyframeId {
-                robot: target.robot,
-                index: index - 1,
-            })?;
-            let ad = adjoint(&(low_pose.inverse() * previous));
-            covariance += ad * self.step_covariance.get(&id)? * ad.transpose();
-        }
-        let target_from_source = target_pose.inverse() * source_pose;
-        if target.index > source.index {
-            // Express the covariance of high_from_low in the high frame.
-            let ad = adjoint(&target_from_source);
-            covariance = ad * covariance * ad.transpose();
-        }
-        Some(RelativePose {
-            target_from_source,
-            covariance,
-        })
+        self.chains.between(target, source)
     }
 
     fn keyframes(&self) -> Vec<KeyframeId> {
-        self.poses.keys().copied().collect()
+        self.chains.keyframes()
     }
 
     fn loops(&self) -> Vec<LoopClosure> {
