@@ -35,3 +35,8 @@ pub use scan::{ScanNoise, simulate_sweep};
 pub use sensor::{SENSOR_NAMES, Sensor};
 pub use source::{MAX_ROBOTS, SimConfig, SimSource, register};
 pub use trajectory::Trajectory;
+mod export;
+mod preview;
+
+pub use export::{ExportSummary, export_fleet_kitti, export_kitti};
+pub use preview::{preview_fleet_png, preview_png};

@@ -179,13 +179,9 @@ impl SimSource {
         u64::from(sequence) * (SWEEP_PERIOD_S * 1e9) as u64
     }
 
-    /// The next scan, or `None` at the end of the route.
-    pub fn next_sim_scan(&mut self) -> Option<Scan> {
-        if self.next_sequence >= self.scan_count {
-            return None;
-        }
-        let sequence = self.next_sequence;
-        self.next_sequence += 1;
+    /// Scan `sequence` without IMU samples, computed directly (any order; identical to the scan the
+    /// iterator yields, whose IMU samples depend on the scans before it).
+    pub fn scan_at(&self, sequence: u32) -> Scan {
         let stamp_nanos = Self::stamp_nanos(sequence);
         let sweep_start_s = stamp_nanos as f64 * 1e-9;
         let trajectory = Arc::clone(&self.trajectory);
@@ -195,15 +191,38 @@ impl SimSource {
             Some(pool) => pool.install(|| simulate_sweep(&self.world, &self.sensor, &poses, sweep_start_s, &self.noise, key, true)),
             None => simulate_sweep(&self.world, &self.sensor, &poses, sweep_start_s, &self.noise, key, false),
         };
-        let imu = self.imu.as_mut().map(|imu| imu.samples_until(&self.trajectory, stamp_nanos)).unwrap_or_default();
-        Some(Scan {
+        Scan {
             robot: self.robot,
             sequence,
             stamp_nanos,
             points,
-            imu,
+            imu: Vec::new(),
             ground_truth_world_from_sensor: Some(self.trajectory.pose_at(sweep_start_s)),
-        })
+        }
+    }
+
+    /// The next scan, or `None` at the end of the route.
+    pub fn next_sim_scan(&mut self) -> Option<Scan> {
+        if self.next_sequence >= self.scan_count {
+            return None;
+        }
+        let mut scan = self.scan_at(self.next_sequence);
+        self.next_sequence += 1;
+        if let Some(imu) = self.imu.as_mut() {
+            scan.imu = imu.samples_until(&self.trajectory, scan.stamp_nanos);
+        }
+        Some(scan)
+    }
+
+    /// Skips `count` scans (their IMU samples are dropped too).
+    pub fn skip_scans(&mut self, count: u32) {
+        if count == 0 {
+            return;
+        }
+        self.next_sequence = (self.next_sequence + count).min(self.scan_count);
+        if let Some(imu) = self.imu.as_mut() {
+            let _ = imu.samples_until(&self.trajectory, Self::stamp_nanos(self.next_sequence.saturating_sub(1)));
+        }
     }
 }
 

@@ -47,7 +47,7 @@ fn main() {
                     }
                 };
                 // Skip the standing start so the robot is moving, then time `scans` scans.
-                let _ = source.by_ref().take(60).count();
+                source.skip_scans(60);
                 let start = Instant::now();
                 let cpu_start = thread_cpu_s();
                 let (mut count, mut points) = (0u32, 0usize);

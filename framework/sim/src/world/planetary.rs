@@ -47,8 +47,9 @@ fn base_height(seed: u64, x: f64, y: f64) -> f64 {
     let broad = 7.0 * fbm2(combine(seed, 1), x / 260.0, y / 260.0, 4, 0.5);
     let ridges = 3.5 * ridged2(combine(seed, 2), x / 380.0 + 11.0, y / 380.0 - 7.0, 4);
     let hummocks = 0.8 * fbm2(combine(seed, 3), x / 35.0, y / 35.0, 3, 0.5);
-    let roughness = 0.06 * value2(combine(seed, 4), x / 2.3, y / 2.3);
-    broad + ridges + hummocks + roughness
+    let undulation = 0.15 * fbm2(combine(seed, 5), x / 11.0, y / 11.0, 2, 0.5);
+    let roughness = 0.08 * value2(combine(seed, 4), x / 2.3, y / 2.3);
+    broad + ridges + hummocks + undulation + roughness
 }
 
 pub(crate) fn generate(seed: u64) -> WorldParts {
