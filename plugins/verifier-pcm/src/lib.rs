@@ -1,1 +1,61 @@
-//! SKiD loop verification: truncated-MSE fitness and pairwise consistency maximisation (PCM).
+//! SKiD loop verification: the two-stage outlier rejection of SKiD-SLAM (Kim et al., §IV-D): a
+//! truncated-MSE fitness check of each loop's clouds ([`fitness`]), then pairwise consistency
+//! maximisation (PCM; Mangelson et al., ICRA 2018) over the loops of each robot pair ([`pcm`],
+//! [`consistency`], [`clique`]).
+//!
+//! Plugins (verifier slot):
+//! - `pcm`: both stages; loops of a robot pair are accepted as the maximum clique of their consistency
+//!   graph, updated as loops arrive, and earlier acceptances are retracted when the clique changes.
+//! - `gnc`: the fitness stage only, accepting the rest; pair it with `[backend.pgo] robust = "gnc"` so
+//!   graduated non-convexity with a truncated-least-squares loss rejects outliers in the back-end.
+//!
+//! `plugin = "none"` (no verifier) is the runtime's business, for ablation.
+
+pub mod clique;
+pub mod consistency;
+pub mod fitness;
+pub mod lie;
+pub mod pcm;
+pub mod verifier;
+
+use skid_core::slots::Verifier;
+use skid_core::{PluginContext, PluginEntry, PluginError, Registry};
+
+pub use consistency::{PcmLoop, squared_mahalanobis};
+pub use fitness::{Fitness, FitnessConfig};
+pub use pcm::{Pcm, PcmParams, PcmUpdate};
+pub use verifier::{GncConfig, GncVerifier, PcmConfig, PcmVerifier};
+
+/// Registers `pcm` and `gnc` in the verifier slot.
+pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
+    let pcm = PluginEntry::new(
+        "pcm",
+        "Truncated-MSE fitness, then pairwise consistency maximisation (exact incremental max clique)",
+        |config: PcmConfig, _context: &PluginContext| Ok(Box::new(PcmVerifier::new(config)?) as Box<dyn Verifier>),
+    )?;
+    registry.verifier.register(pcm)?;
+    let gnc = PluginEntry::new(
+        "gnc",
+        "Truncated-MSE fitness only; outliers left to GNC-TLS in the back-end (robust = \"gnc\")",
+        |config: GncConfig, _context: &PluginContext| Ok(Box::new(GncVerifier::new(config)?) as Box<dyn Verifier>),
+    )?;
+    registry.verifier.register(gnc)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pcm_passes_the_verifier_conformance_suite() {
+        let mut verifier = PcmVerifier::new(PcmConfig::default()).unwrap();
+        skid_testkit::verifier::check_verifier(&mut verifier);
+    }
+
+    #[test]
+    fn plugins_register_with_defaults() {
+        let mut registry = Registry::new();
+        register(&mut registry).unwrap();
+        assert!(register(&mut registry).is_err(), "registering twice is refused");
+    }
+}

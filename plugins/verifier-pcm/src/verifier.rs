@@ -1,0 +1,121 @@
+//! The verifier plugins: `pcm` (SKiD-SLAM's two stages, truncated MSE then PCM) and `gnc` (truncated
+//! MSE only; the outliers are left to graduated non-convexity in the back-end, for ablation).
+
+use serde::{Deserialize, Serialize};
+use skid_core::slots::{GraphView, LoopCandidate, Verdict, Verifier};
+use skid_core::{PluginError, PluginResult};
+
+use crate::consistency::PcmLoop;
+use crate::fitness::FitnessConfig;
+use crate::pcm::{Pcm, PcmParams};
+
+/// Parameters of the `pcm` verifier: `[verifier.pcm]` with the fitness check in `[verifier.pcm.fitness]`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PcmConfig {
+    pub fitness: FitnessConfig,
+    pub consistency: PcmParams,
+}
+
+/// Parameters of the `gnc` verifier.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GncConfig {
+    pub fitness: FitnessConfig,
+}
+
+/// Runs the fitness check on a candidate: `Some(reason)` when it fails.
+fn fitness_rejection(config: &FitnessConfig, candidate: &LoopCandidate<'_>) -> Option<String> {
+    if !config.enabled {
+        return None;
+    }
+    let closure = &candidate.closure;
+    match config.measure(candidate.target_cloud.points(), candidate.source_cloud.points(), &closure.target_from_source) {
+        Ok(fitness) => config.judge(&fitness),
+        Err(reason) => Some(format!("truncated MSE: {reason}")),
+    }
+}
+
+/// Checks that both keyframes of a loop are in the graph.
+fn unknown_keyframe(candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> Option<String> {
+    let closure = &candidate.closure;
+    [closure.target, closure.source]
+        .into_iter()
+        .find(|id| graph.pose(*id).is_none())
+        .map(|id| format!("keyframe {id} is not in the graph"))
+}
+
+/// The `pcm` verifier.
+pub struct PcmVerifier {
+    fitness: FitnessConfig,
+    pcm: Pcm,
+}
+
+impl PcmVerifier {
+    pub fn new(config: PcmConfig) -> PluginResult<Self> {
+        config.fitness.validate().map_err(|e| PluginError::failed("pcm", e))?;
+        let pcm = Pcm::new(config.consistency).map_err(|e| PluginError::failed("pcm", e))?;
+        Ok(Self { fitness: config.fitness, pcm })
+    }
+
+    /// The PCM state (accepted loops, threshold).
+    pub fn pcm(&self) -> &Pcm {
+        &self.pcm
+    }
+}
+
+impl Verifier for PcmVerifier {
+    fn submit(&mut self, candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> PluginResult<Verdict> {
+        let id = candidate.closure.id;
+        let reject = |reason: String| Ok(Verdict { rejected: vec![(id, reason)], ..Verdict::default() });
+        if let Some(reason) = unknown_keyframe(candidate, graph) {
+            return reject(reason);
+        }
+        let pcm_loop = match PcmLoop::from_closure(&candidate.closure) {
+            Ok(pcm_loop) => pcm_loop,
+            Err(reason) => return reject(reason),
+        };
+        if let Some(reason) = fitness_rejection(&self.fitness, candidate) {
+            return reject(reason);
+        }
+        let update = self.pcm.add(pcm_loop, graph).map_err(PluginError::InvalidInput)?;
+        let mut verdict = Verdict { accepted: update.accepted.clone(), retracted: update.retracted.clone(), rejected: Vec::new() };
+        if !update.pending && !update.accepted.contains(&id) {
+            verdict.rejected.push((
+                id,
+                format!(
+                    "PCM: not in the maximum consistent set ({} of {} loops{})",
+                    update.clique_size,
+                    update.group_size,
+                    if update.exact { "" } else { ", heuristic clique" }
+                ),
+            ));
+        }
+        Ok(verdict)
+    }
+}
+
+/// The `gnc` verifier: accepts every loop that passes the fitness check.
+pub struct GncVerifier {
+    fitness: FitnessConfig,
+}
+
+impl GncVerifier {
+    pub fn new(config: GncConfig) -> PluginResult<Self> {
+        config.fitness.validate().map_err(|e| PluginError::failed("gnc", e))?;
+        Ok(Self { fitness: config.fitness })
+    }
+}
+
+impl Verifier for GncVerifier {
+    fn submit(&mut self, candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> PluginResult<Verdict> {
+        let id = candidate.closure.id;
+        let reason = unknown_keyframe(candidate, graph)
+            .or_else(|| PcmLoop::from_closure(&candidate.closure).err())
+            .or_else(|| fitness_rejection(&self.fitness, candidate));
+        Ok(match reason {
+            Some(reason) => Verdict { rejected: vec![(id, reason)], ..Verdict::default() },
+            None => Verdict { accepted: vec![id], ..Verdict::default() },
+        })
+    }
+}
