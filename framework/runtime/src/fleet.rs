@@ -1,60 +1,15 @@
-//! The fleet: one [`RobotHost`] per robot, each owning its plugin instances, stepped in lockstep.
+//! The fleet: one [`RobotHost`] per robot, built from the resolved configuration, stepped in lockstep
+//! (one thread, every robot in turn, bit-for-bit reproducible), with messages delivered between steps.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-use serde::Serialize;
 use skid_config::ResolvedConfig;
-use skid_core::slots::{
-    Backend, CoarseRegistration, Descriptor, FineRegistration, Odometry, Source, Transport, Verifier,
-};
-use skid_core::{PluginContext, PluginError, Pose, Registry, RobotId, Slot};
+use skid_core::{PluginContext, PluginError, Registry, RobotId, Slot};
+use skid_protocol::{Incoming, Message, ProtocolConfig, ProtocolEndpoint};
 
 use crate::RuntimeError;
-
-/// One robot's plugins and what it has produced so far.
-pub struct RobotHost {
-    pub robot: RobotId,
-    pub source: Box<dyn Source>,
-    pub odometry: Option<Box<dyn Odometry>>,
-    pub descriptor: Option<Box<dyn Descriptor>>,
-    pub coarse: Option<Box<dyn CoarseRegistration>>,
-    pub fine: Option<Box<dyn FineRegistration>>,
-    pub verifier: Option<Box<dyn Verifier>>,
-    pub backend: Option<Box<dyn Backend>>,
-    pub transport: Option<Box<dyn Transport>>,
-    /// Odometry estimate per scan: stamp in nanoseconds and `world_from_sensor`.
-    pub trajectory: Vec<(u64, Pose)>,
-    /// Ground truth per scan, when the source provides it.
-    pub ground_truth: Vec<(u64, Pose)>,
-    pub keyframes: usize,
-    pub scans: usize,
-    pub points: usize,
-    odometry_ms: Vec<f64>,
-    finished: bool,
-}
-
-/// What one robot did, for the run's summary JSON.
-#[derive(Clone, Debug, Serialize)]
-pub struct RobotSummary {
-    pub robot: u32,
-    pub scans: usize,
-    pub keyframes: usize,
-    pub mean_points_per_scan: f64,
-    pub odometry_ms_median: f64,
-    pub odometry_ms_p90: f64,
-    pub path_length_m: f64,
-    /// RMSE of position after aligning the first poses, when ground truth exists.
-    pub ate_first_pose_aligned_m: Option<f64>,
-}
-
-/// The summary of a whole run.
-#[derive(Clone, Debug, Serialize)]
-pub struct RunSummary {
-    pub name: String,
-    pub robots: Vec<RobotSummary>,
-    pub wall_s: f64,
-    pub slots: Vec<(String, String)>,
-}
+use crate::host::{Plugins, RobotHost};
+use crate::summary::RunSummary;
 
 /// Every robot of the run.
 pub struct Fleet {
@@ -83,8 +38,12 @@ fn build<T: ?Sized + 'static>(
         })
 }
 
+/// Rounds of message delivery after each step, so a request and its reply complete within one step.
+const DELIVERY_ROUNDS: usize = 4;
+
 impl Fleet {
-    /// Builds every robot's plugins. `threads` is the whole host's budget, shared among robots.
+    /// Builds every robot's plugins. `threads` is the whole host's budget; in lockstep every robot may
+    /// use all of it, since only one robot runs at a time.
     pub fn build(config: ResolvedConfig, registry: &Registry) -> Result<Self, RuntimeError> {
         let robots_total = config.run.robots;
         let threads = if config.run.threads == 0 {
@@ -99,7 +58,7 @@ impl Fleet {
                 robot,
                 fleet_size: robots_total,
                 threads: threads.max(1),
-                seed: config.run.seed.wrapping_add(u64::from(index)),
+                seed: config.run.seed,
                 output_dir: Some(config.run.output_dir.join(&config.run.name)),
             };
             let source = build(&registry.source, &config, &context)?.ok_or_else(|| RuntimeError::Plugin {
@@ -108,8 +67,7 @@ impl Fleet {
                 plugin: "none".into(),
                 source: PluginError::InvalidInput("a source is required".into()),
             })?;
-            robots.push(RobotHost {
-                robot,
+            let plugins = Plugins {
                 source,
                 odometry: build(&registry.odometry, &config, &context)?,
                 descriptor: build(&registry.descriptor, &config, &context)?,
@@ -118,128 +76,122 @@ impl Fleet {
                 verifier: build(&registry.verifier, &config, &context)?,
                 backend: build(&registry.backend, &config, &context)?,
                 transport: build(&registry.transport, &config, &context)?,
-                trajectory: Vec::new(),
-                ground_truth: Vec::new(),
-                keyframes: 0,
-                scans: 0,
-                points: 0,
-                odometry_ms: Vec::new(),
-                finished: false,
-            });
+            };
+            // Lockstep runs must reproduce bit for bit, so the session number comes from the seed.
+            let session = (config.run.seed as u32)
+                .wrapping_mul(2_654_435_761)
+                .wrapping_add(index);
+            let protocol = ProtocolEndpoint::new(robot, session, ProtocolConfig::default());
+            robots.push(RobotHost::new(robot, plugins, protocol));
         }
         Ok(Self { config, robots })
     }
 
     /// Runs every robot in lockstep until all sources end (or `max_scans` per robot), calling
-    /// `progress(total_scans_done)` after each round.
+    /// `progress(scans_done)` after each round.
     pub fn run_lockstep(&mut self, mut progress: impl FnMut(usize)) -> Result<RunSummary, RuntimeError> {
         let started = Instant::now();
         let max_scans = self.config.run.max_scans as usize;
         let mut done = 0;
         while self.robots.iter().any(|robot| !robot.finished) {
-            for robot in self.robots.iter_mut().filter(|robot| !robot.finished) {
-                if max_scans > 0 && robot.scans >= max_scans {
+            for index in 0..self.robots.len() {
+                let robot = &mut self.robots[index];
+                if robot.finished {
+                    continue;
+                }
+                if max_scans > 0 && robot.scans.len() >= max_scans {
                     robot.finished = true;
                     continue;
                 }
-                robot.finished = !robot.step(&self.config)?;
+                let mut outbox = Vec::new();
+                robot.finished = !robot.step(&self.config, &mut outbox)?;
                 done += usize::from(!robot.finished);
+                send_all(robot, outbox);
             }
+            self.deliver()?;
             progress(done);
         }
-        Ok(self.summary(started.elapsed().as_secs_f64()))
+        for _ in 0..DELIVERY_ROUNDS {
+            self.deliver()?;
+        }
+        for robot in &mut self.robots {
+            robot.optimize(&self.config)?;
+        }
+        Ok(RunSummary::of(self, started.elapsed().as_secs_f64()))
     }
 
-    fn summary(&self, wall_s: f64) -> RunSummary {
-        RunSummary {
-            name: self.config.run.name.clone(),
-            robots: self.robots.iter().map(RobotHost::summary).collect(),
-            wall_s,
-            slots: Slot::ALL
-                .iter()
-                .map(|&slot| (slot.key().to_owned(), self.config.slot(slot).plugin.clone()))
-                .collect(),
+    /// Polls every robot's transport and acts on what arrived, a few rounds so replies come through.
+    fn deliver(&mut self) -> Result<(), RuntimeError> {
+        for _ in 0..DELIVERY_ROUNDS {
+            let mut delivered = 0;
+            for robot in &mut self.robots {
+                delivered += deliver_to(robot, &self.config)?;
+            }
+            if delivered == 0 {
+                break;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Encodes and sends messages from `robot` to their destinations. A send that fails (link down,
+/// oversized) is logged: a robot never stops because a peer cannot be reached.
+fn send_all(robot: &mut RobotHost, messages: Vec<Message>) {
+    let Some(transport) = robot.plugins.transport.as_mut() else {
+        return;
+    };
+    for message in messages {
+        let destination = crate::peers::destination(robot.robot, &message);
+        match robot.protocol.encode(&message) {
+            Ok(bytes) => {
+                if let Err(error) = transport.send(destination, &bytes) {
+                    tracing::warn!(robot = %robot.robot, %error, "send failed");
+                }
+            }
+            Err(error) => tracing::warn!(robot = %robot.robot, %error, "message not encoded"),
         }
     }
 }
 
-impl RobotHost {
-    /// Reads and processes one scan; false when the source has ended.
-    fn step(&mut self, config: &ResolvedConfig) -> Result<bool, RuntimeError> {
-        let plugin_error = |slot: Slot, source: PluginError| RuntimeError::Plugin {
-            robot: self.robot,
-            slot,
-            plugin: config.slot(slot).plugin.clone(),
-            source,
-        };
-        let scan = match self.source.next_scan() {
-            Ok(Some(scan)) => scan,
-            Ok(None) => return Ok(false),
-            Err(error) => return Err(plugin_error(Slot::Source, error)),
-        };
-        self.scans += 1;
-        self.points += scan.points.len();
-        if let Some(truth) = scan.ground_truth_world_from_sensor {
-            self.ground_truth.push((scan.stamp_nanos, truth));
+/// Receives and handles everything waiting for `robot`; returns how many messages it handled.
+fn deliver_to(robot: &mut RobotHost, config: &ResolvedConfig) -> Result<usize, RuntimeError> {
+    let Some(transport) = robot.plugins.transport.as_mut() else {
+        return Ok(0);
+    };
+    let datagrams = match transport.poll(Duration::ZERO) {
+        Ok(datagrams) => datagrams,
+        Err(error) => {
+            tracing::warn!(robot = %robot.robot, %error, "poll failed");
+            return Ok(0);
         }
-        if let Some(odometry) = self.odometry.as_mut() {
-            let started = Instant::now();
-            let update = odometry
-                .register(&scan)
-                .map_err(|error| plugin_error(Slot::Odometry, error))?;
-            self.odometry_ms.push(started.elapsed().as_secs_f64() * 1e3);
-            self.trajectory
-                .push((update.stamp_nanos, update.world_from_sensor));
-            self.keyframes += usize::from(update.keyframe.is_some());
-        }
-        Ok(true)
-    }
-
-    fn summary(&self) -> RobotSummary {
-        let mut sorted = self.odometry_ms.clone();
-        sorted.sort_by(f64::total_cmp);
-        let quantile = |q: f64| {
-            if sorted.is_empty() {
-                0.0
-            } else {
-                sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+    };
+    let count = datagrams.len();
+    let mut outbox = Vec::new();
+    let mut replies = Vec::new();
+    for datagram in datagrams {
+        match robot.protocol.receive(datagram.from, &datagram.payload) {
+            Ok(Incoming::Message(received)) => {
+                robot.handle_message(config, datagram.from, received.message, &mut replies, &mut outbox)?;
             }
-        };
-        let path_length_m = self
-            .trajectory
-            .windows(2)
-            .map(|pair| (pair[1].1.translation.vector - pair[0].1.translation.vector).norm())
-            .sum();
-        RobotSummary {
-            robot: self.robot.0,
-            scans: self.scans,
-            keyframes: self.keyframes,
-            mean_points_per_scan: if self.scans == 0 {
-                0.0
-            } else {
-                self.points as f64 / self.scans as f64
-            },
-            odometry_ms_median: quantile(0.5),
-            odometry_ms_p90: quantile(0.9),
-            path_length_m,
-            ate_first_pose_aligned_m: self.ate_first_pose_aligned(),
+            Ok(Incoming::Dropped { .. }) => {}
+            Err(error) => {
+                tracing::warn!(robot = %robot.robot, from = %datagram.from, %error, "malformed message dropped")
+            }
         }
     }
-
-    fn ate_first_pose_aligned(&self) -> Option<f64> {
-        if self.ground_truth.len() != self.trajectory.len() || self.trajectory.is_empty() {
-            return None;
+    send_all(robot, outbox);
+    if let Some(transport) = robot.plugins.transport.as_mut() {
+        for (to, message) in replies {
+            match robot.protocol.encode(&message) {
+                Ok(bytes) => {
+                    if let Err(error) = transport.send(skid_core::slots::Destination::Robot(to), &bytes) {
+                        tracing::warn!(robot = %robot.robot, %error, "reply failed");
+                    }
+                }
+                Err(error) => tracing::warn!(robot = %robot.robot, %error, "reply not encoded"),
+            }
         }
-        let truth_from_estimate = self.ground_truth[0].1 * self.trajectory[0].1.inverse();
-        let sum_sq: f64 = self
-            .trajectory
-            .iter()
-            .zip(&self.ground_truth)
-            .map(|((_, estimate), (_, truth))| {
-                ((truth_from_estimate * estimate).translation.vector - truth.translation.vector)
-                    .norm_squared()
-            })
-            .sum();
-        Some((sum_sq / self.trajectory.len() as f64).sqrt())
     }
+    Ok(count)
 }

@@ -1,15 +1,28 @@
-//! The robot host: instantiates each robot's plugins from a resolved configuration and runs the fleet.
+//! The robot host and the fleet runner.
 //!
-//! What runs today is the front end in lockstep (every robot's source and odometry, one scan at a time
-//! in turn, bit-for-bit reproducible); the place-recognition, registration, verification and back-end
-//! stages are constructed (so a configuration naming them is checked end to end) and are wired in as
-//! their plugins land. Outputs go to `<output_dir>/<run name>/`.
+//! Each robot's [`RobotHost`] owns its plugin instances and joins them the way SKiD-SLAM does (Sec. III
+//! of the paper): odometry turns scans into keyframes; each keyframe is described, shared with peers as
+//! a small descriptor, and queried against the robot's own and its peers' descriptors; candidates are
+//! registered (coarse, then fine — a peer's cloud is fetched only for its candidates), verified
+//! (truncated MSE + PCM) and added to the robot's pose graph, which also holds the peer keyframes its
+//! inter-robot loops touch, joined by the peers' odometry chains. [`Fleet`] runs the robots in lockstep
+//! and delivers their messages through the configured transport; outputs go to
+//! `<output_dir>/<run name>/`.
 
 mod fleet;
+mod graph;
+mod host;
+mod loops;
 mod outputs;
+mod peers;
+mod settings;
+mod summary;
 
-pub use fleet::{Fleet, RobotHost, RobotSummary, RunSummary};
+pub use fleet::Fleet;
+pub use graph::HostGraph;
+pub use host::{LoopStats, Plugins, RobotHost, ScanRecord};
 pub use outputs::write_outputs;
+pub use summary::{RobotSummary, RunSummary};
 
 /// What can stop a run.
 #[derive(Debug, thiserror::Error)]

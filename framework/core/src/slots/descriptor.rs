@@ -39,6 +39,13 @@ pub trait Descriptor: Send {
 
     /// A new, empty retrieval index for this descriptor kind and these parameters.
     fn new_index(&self) -> Box<dyn DescriptorIndex>;
+
+    /// The largest distance (as the index reports it) at which two descriptors are taken to show the
+    /// same place; the runtime passes only candidates below it to registration. The default accepts
+    /// every candidate and leaves the decision to verification.
+    fn match_threshold(&self) -> f64 {
+        f64::INFINITY
+    }
 }
 
 /// Stores descriptors and retrieves the nearest ones.

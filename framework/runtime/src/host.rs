@@ -1,0 +1,451 @@
+//! One robot's host: its plugin instances and the state that joins them (keyframes, odometry chains,
+//! the descriptor index, loops), and the front-end step that turns one scan into odometry, keyframes,
+//! descriptors and loop candidates.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::sync::Arc;
+use std::time::Instant;
+
+use skid_config::ResolvedConfig;
+use skid_core::slots::{
+    Backend, CoarseRegistration, Descriptor, DescriptorBuf, DescriptorIndex, FineRegistration, LoopClosure,
+    Odometry, OdometryMeasurement, OptimizeBudget, PreparedCloud, Source, Transport, Verifier,
+};
+use skid_core::{Cloud, Keyframe, KeyframeId, LoopId, PluginError, Pose, RobotId, Slot};
+use skid_geometry::OdometryChains;
+use skid_protocol::ProtocolEndpoint;
+
+use crate::RuntimeError;
+use crate::settings::{information_from_covariance, odometry_step_covariance};
+
+/// The plugin instances of one robot; every slot but the source may be empty.
+pub struct Plugins {
+    pub source: Box<dyn Source>,
+    pub odometry: Option<Box<dyn Odometry>>,
+    pub descriptor: Option<Box<dyn Descriptor>>,
+    pub coarse: Option<Box<dyn CoarseRegistration>>,
+    pub fine: Option<Box<dyn FineRegistration>>,
+    pub verifier: Option<Box<dyn Verifier>>,
+    pub backend: Option<Box<dyn Backend>>,
+    pub transport: Option<Box<dyn Transport>>,
+}
+
+/// One scan's odometry, remembered so the optimised trajectory can be rebuilt for every scan.
+#[derive(Clone, Copy, Debug)]
+pub struct ScanRecord {
+    pub stamp_nanos: u64,
+    pub world_from_sensor: Pose,
+    /// The keyframe at or before this scan.
+    pub keyframe: Option<u32>,
+    pub ground_truth: Option<Pose>,
+}
+
+/// Counts of what the loop machinery did.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct LoopStats {
+    pub candidates_intra: usize,
+    pub candidates_inter: usize,
+    pub coarse_invalid: usize,
+    pub fine_not_converged: usize,
+    pub accepted_intra: usize,
+    pub accepted_inter: usize,
+    pub rejected: usize,
+    pub retracted: usize,
+    pub received_from_peers: usize,
+}
+
+/// A peer candidate waiting for the peer's cloud.
+#[derive(Clone, Copy, Debug)]
+pub struct PendingCandidate {
+    pub target: KeyframeId,
+    pub source: KeyframeId,
+    pub yaw_hint_rad: Option<f64>,
+}
+
+/// Everything one robot runs and knows.
+pub struct RobotHost {
+    pub robot: RobotId,
+    pub plugins: Plugins,
+    pub protocol: ProtocolEndpoint,
+    pub chains: OdometryChains,
+    pub keyframes: BTreeMap<u32, Arc<Keyframe>>,
+    pub peer_clouds: HashMap<KeyframeId, Arc<Cloud>>,
+    pub prepared: HashMap<KeyframeId, PreparedCloud>,
+    pub index: Option<Box<dyn DescriptorIndex>>,
+    pub pending: Vec<PendingCandidate>,
+    pub requested: BTreeSet<KeyframeId>,
+    pub loops: BTreeMap<LoopId, LoopClosure>,
+    /// Loops identified across robots by their keyframe pair.
+    pub loop_by_pair: BTreeMap<(KeyframeId, KeyframeId), LoopId>,
+    pub next_loop_id: u64,
+    /// Keyframes present in the back-end's graph.
+    pub in_backend: BTreeSet<KeyframeId>,
+    /// Peers whose odometry chain has been added to the back-end.
+    pub peers_in_backend: BTreeSet<RobotId>,
+    /// Submitted loops that are not (or no longer) accepted, kept because PCM may accept them later.
+    pub pending_closures: BTreeMap<LoopId, LoopClosure>,
+    /// Accepted loops that wait for a peer keyframe's odometry before entering the back-end.
+    pub deferred_loops: Vec<LoopClosure>,
+    /// Where each peer's odometry frame sits in this robot's frame, from the first loop with it.
+    pub peer_frames: BTreeMap<RobotId, Pose>,
+    pub scans: Vec<ScanRecord>,
+    pub stats: LoopStats,
+    pub stage_ms: BTreeMap<&'static str, f64>,
+    pub points_read: usize,
+    pub finished: bool,
+    keyframes_since_optimize: u32,
+}
+
+impl RobotHost {
+    pub fn new(robot: RobotId, plugins: Plugins, protocol: ProtocolEndpoint) -> Self {
+        let index = plugins
+            .descriptor
+            .as_ref()
+            .map(|descriptor| descriptor.new_index());
+        Self {
+            robot,
+            plugins,
+            protocol,
+            chains: OdometryChains::default(),
+            keyframes: BTreeMap::new(),
+            peer_clouds: HashMap::new(),
+            prepared: HashMap::new(),
+            index,
+            pending: Vec::new(),
+            requested: BTreeSet::new(),
+            loops: BTreeMap::new(),
+            loop_by_pair: BTreeMap::new(),
+            next_loop_id: 0,
+            in_backend: BTreeSet::new(),
+            peers_in_backend: BTreeSet::new(),
+            pending_closures: BTreeMap::new(),
+            deferred_loops: Vec::new(),
+            peer_frames: BTreeMap::new(),
+            scans: Vec::new(),
+            stats: LoopStats::default(),
+            stage_ms: BTreeMap::new(),
+            points_read: 0,
+            finished: false,
+            keyframes_since_optimize: 0,
+        }
+    }
+
+    pub(crate) fn plugin_error(
+        &self,
+        config: &ResolvedConfig,
+        slot: Slot,
+        source: PluginError,
+    ) -> RuntimeError {
+        RuntimeError::Plugin {
+            robot: self.robot,
+            slot,
+            plugin: config.slot(slot).plugin.clone(),
+            source,
+        }
+    }
+
+    pub(crate) fn time<T>(&mut self, stage: &'static str, work: impl FnOnce(&mut Self) -> T) -> T {
+        let started = Instant::now();
+        let value = work(self);
+        *self.stage_ms.entry(stage).or_default() += started.elapsed().as_secs_f64() * 1e3;
+        value
+    }
+
+    /// Reads and processes one scan; false when the source has ended. Returns new descriptors to
+    /// broadcast through `outbox`.
+    pub fn step(
+        &mut self,
+        config: &ResolvedConfig,
+        outbox: &mut Vec<skid_protocol::Message>,
+    ) -> Result<bool, RuntimeError> {
+        let scan = match self.time("source", |host| host.plugins.source.next_scan()) {
+            Ok(Some(scan)) => scan,
+            Ok(None) => return Ok(false),
+            Err(error) => return Err(self.plugin_error(config, Slot::Source, error)),
+        };
+        self.points_read += scan.points.len();
+        let Some(odometry) = self.plugins.odometry.as_mut() else {
+            self.scans.push(ScanRecord {
+                stamp_nanos: scan.stamp_nanos,
+                world_from_sensor: Pose::identity(),
+                keyframe: None,
+                ground_truth: scan.ground_truth_world_from_sensor,
+            });
+            return Ok(true);
+        };
+        let started = Instant::now();
+        let update = match odometry.register(&scan) {
+            Ok(update) => update,
+            Err(PluginError::InvalidInput(reason)) => {
+                // A scan the odometry cannot use is skipped with a warning; the run goes on.
+                tracing::warn!(robot = %self.robot, sequence = scan.sequence, %reason, "scan skipped");
+                return Ok(true);
+            }
+            Err(error) => return Err(self.plugin_error(config, Slot::Odometry, error)),
+        };
+        *self.stage_ms.entry("odometry").or_default() += started.elapsed().as_secs_f64() * 1e3;
+        let keyframe_index = update
+            .keyframe
+            .as_ref()
+            .map(|k| k.id.index)
+            .or_else(|| self.scans.last().and_then(|s| s.keyframe));
+        self.scans.push(ScanRecord {
+            stamp_nanos: update.stamp_nanos,
+            world_from_sensor: update.world_from_sensor,
+            keyframe: keyframe_index,
+            ground_truth: scan.ground_truth_world_from_sensor,
+        });
+        if let Some(keyframe) = update.keyframe {
+            self.on_keyframe(config, keyframe, outbox)?;
+        }
+        Ok(true)
+    }
+
+    /// Adds a keyframe to the chains and the back-end, describes it, shares it, and looks for loops.
+    fn on_keyframe(
+        &mut self,
+        config: &ResolvedConfig,
+        keyframe: Keyframe,
+        outbox: &mut Vec<skid_protocol::Message>,
+    ) -> Result<(), RuntimeError> {
+        let id = keyframe.id;
+        let previous = id
+            .index
+            .checked_sub(1)
+            .and_then(|index| self.keyframes.get(&index).map(|k| (index, k.world_from_sensor)));
+        let step = previous.map_or(Pose::identity(), |(_, pose)| {
+            pose.inverse() * keyframe.world_from_sensor
+        });
+        let step_covariance = odometry_step_covariance(&config.loops, &step);
+        self.chains
+            .insert(id, keyframe.world_from_sensor, step_covariance);
+        let keyframe = Arc::new(keyframe);
+        self.keyframes.insert(id.index, Arc::clone(&keyframe));
+        outbox.push(crate::peers::chain_message(
+            self.robot,
+            id.index,
+            &keyframe.world_from_sensor,
+            step,
+            step_covariance,
+        ));
+
+        if let Some(backend) = self.plugins.backend.as_mut() {
+            let guess = match previous {
+                Some((index, _)) => backend
+                    .graph()
+                    .pose(KeyframeId {
+                        robot: self.robot,
+                        index,
+                    })
+                    .map_or(keyframe.world_from_sensor, |p| p * step),
+                None => keyframe.world_from_sensor,
+            };
+            backend
+                .add_keyframe(id, guess)
+                .map_err(|e| RuntimeError::Plugin {
+                    robot: self.robot,
+                    slot: Slot::Backend,
+                    plugin: config.slot(Slot::Backend).plugin.clone(),
+                    source: e,
+                })?;
+            self.in_backend.insert(id);
+            if let Some((index, _)) = previous {
+                let measurement = OdometryMeasurement {
+                    target: KeyframeId {
+                        robot: self.robot,
+                        index,
+                    },
+                    source: id,
+                    target_from_source: step,
+                    information: information_from_covariance(&step_covariance),
+                };
+                backend
+                    .add_odometry(measurement)
+                    .map_err(|e| RuntimeError::Plugin {
+                        robot: self.robot,
+                        slot: Slot::Backend,
+                        plugin: config.slot(Slot::Backend).plugin.clone(),
+                        source: e,
+                    })?;
+            }
+        }
+
+        if self.plugins.descriptor.is_some() {
+            let described = self.time("descriptor", |host| {
+                host.plugins
+                    .descriptor
+                    .as_mut()
+                    .map(|d| d.describe(keyframe.cloud.view()))
+            });
+            match described {
+                Some(Ok(descriptor)) => self.on_descriptor(config, &keyframe, descriptor, outbox)?,
+                Some(Err(PluginError::InvalidInput(reason))) => {
+                    tracing::warn!(robot = %self.robot, keyframe = id.index, %reason, "keyframe not described");
+                }
+                Some(Err(error)) => return Err(self.plugin_error(config, Slot::Descriptor, error)),
+                None => {}
+            }
+        }
+
+        self.keyframes_since_optimize += 1;
+        if self.keyframes_since_optimize >= config.loops.optimize_every_keyframes.max(1) {
+            self.optimize(config)?;
+        }
+        Ok(())
+    }
+
+    /// Stores and shares a keyframe's descriptor, then queries the index for loop candidates.
+    fn on_descriptor(
+        &mut self,
+        config: &ResolvedConfig,
+        keyframe: &Keyframe,
+        descriptor: DescriptorBuf,
+        outbox: &mut Vec<skid_protocol::Message>,
+    ) -> Result<(), RuntimeError> {
+        let id = keyframe.id;
+        outbox.push(crate::peers::descriptor_message(
+            self.robot,
+            keyframe,
+            &descriptor,
+        ));
+        let loops = &config.loops;
+        let robot = self.robot;
+        let threshold = if loops.max_descriptor_distance > 0.0 {
+            loops.max_descriptor_distance
+        } else {
+            self.plugins
+                .descriptor
+                .as_ref()
+                .map_or(f64::INFINITY, |d| d.match_threshold())
+        };
+        let exclude = |candidate: KeyframeId| {
+            if candidate.robot == robot {
+                !loops.intra_robot || candidate.index + loops.exclude_recent_keyframes >= id.index
+            } else {
+                !loops.inter_robot
+            }
+        };
+        let Some(index) = self.index.as_mut() else {
+            return Ok(());
+        };
+        let started = Instant::now();
+        let found = index.query(&descriptor, loops.candidates, &exclude);
+        index.insert(id, descriptor).map_err(|e| RuntimeError::Plugin {
+            robot,
+            slot: Slot::Descriptor,
+            plugin: config.slot(Slot::Descriptor).plugin.clone(),
+            source: e,
+        })?;
+        *self.stage_ms.entry("retrieval").or_default() += started.elapsed().as_secs_f64() * 1e3;
+        let found = found.map_err(|e| self.plugin_error(config, Slot::Descriptor, e))?;
+        for candidate in found.into_iter().filter(|c| c.distance <= threshold) {
+            let pending = PendingCandidate {
+                target: candidate.id,
+                source: id,
+                yaw_hint_rad: candidate.yaw_hint_rad,
+            };
+            if candidate.id.robot == robot {
+                self.stats.candidates_intra += 1;
+                self.process_candidate(config, pending, outbox)?;
+            } else {
+                self.stats.candidates_inter += 1;
+                if self.peer_clouds.contains_key(&candidate.id) {
+                    self.process_candidate(config, pending, outbox)?;
+                } else {
+                    if self.requested.insert(candidate.id) {
+                        outbox.push(crate::peers::cloud_request(self.robot, candidate.id));
+                    }
+                    self.pending.push(pending);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Optimises the back-end's graph, if there is one.
+    pub fn optimize(&mut self, config: &ResolvedConfig) -> Result<(), RuntimeError> {
+        self.keyframes_since_optimize = 0;
+        let budget = OptimizeBudget {
+            max_iterations: config.loops.optimize_iterations,
+            ..OptimizeBudget::default()
+        };
+        let result = self.time("backend", |host| {
+            host.plugins
+                .backend
+                .as_mut()
+                .map(|backend| backend.optimize(budget))
+        });
+        match result {
+            Some(Err(error)) => Err(self.plugin_error(config, Slot::Backend, error)),
+            _ => Ok(()),
+        }
+    }
+
+    /// The fine registration's preparation of a keyframe cloud, computed once per keyframe.
+    pub(crate) fn prepared_cloud(
+        &mut self,
+        config: &ResolvedConfig,
+        id: KeyframeId,
+        cloud: &Cloud,
+    ) -> Result<PreparedCloud, RuntimeError> {
+        if let Some(prepared) = self.prepared.get(&id) {
+            return Ok(prepared.clone());
+        }
+        let Some(fine) = self.plugins.fine.as_mut() else {
+            return Err(self.plugin_error(
+                config,
+                Slot::Fine,
+                PluginError::InvalidInput("no fine registration".into()),
+            ));
+        };
+        let started = Instant::now();
+        let prepared = fine.prepare(cloud.view()).map_err(|error| RuntimeError::Plugin {
+            robot: self.robot,
+            slot: Slot::Fine,
+            plugin: config.slot(Slot::Fine).plugin.clone(),
+            source: error,
+        })?;
+        *self.stage_ms.entry("fine_prepare").or_default() += started.elapsed().as_secs_f64() * 1e3;
+        self.prepared.insert(id, prepared.clone());
+        Ok(prepared)
+    }
+
+    /// The cloud of a keyframe this robot holds (its own, or a peer's it fetched).
+    pub fn cloud_of(&self, id: KeyframeId) -> Option<Arc<Cloud>> {
+        if id.robot == self.robot {
+            self.keyframes.get(&id.index).map(|k| Arc::new(k.cloud.clone()))
+        } else {
+            self.peer_clouds.get(&id).cloned()
+        }
+    }
+
+    /// The optimised pose of one of this robot's keyframes (odometry when there is no back-end).
+    pub fn keyframe_pose(&self, index: u32) -> Option<Pose> {
+        let id = KeyframeId {
+            robot: self.robot,
+            index,
+        };
+        self.plugins
+            .backend
+            .as_ref()
+            .and_then(|backend| backend.graph().pose(id))
+            .or_else(|| self.chains.pose(id))
+    }
+
+    /// The trajectory of every scan, corrected by the optimised keyframe poses.
+    pub fn optimised_trajectory(&self) -> Vec<(u64, Pose)> {
+        self.scans
+            .iter()
+            .map(|scan| {
+                let corrected = scan.keyframe.and_then(|index| {
+                    let odometry = self.chains.pose(KeyframeId {
+                        robot: self.robot,
+                        index,
+                    })?;
+                    Some(self.keyframe_pose(index)? * odometry.inverse() * scan.world_from_sensor)
+                });
+                (scan.stamp_nanos, corrected.unwrap_or(scan.world_from_sensor))
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,299 @@
+//! Loop candidates to verified loops: coarse registration (or the descriptor's yaw hint), fine
+//! registration, verification, and the back-end updates the verdict calls for. Intra- and inter-robot
+//! candidates take the same path (SKiD-SLAM, Sec. III): only where the target cloud came from differs.
+
+use nalgebra::{UnitQuaternion, Vector3};
+use skid_config::ResolvedConfig;
+use skid_core::slots::{LoopCandidate, LoopClosure, Verdict};
+use skid_core::{KeyframeId, LoopId, PluginError, Pose, Slot};
+
+use crate::RuntimeError;
+use crate::graph::HostGraph;
+use crate::host::{PendingCandidate, RobotHost};
+use crate::settings::loop_information;
+
+impl RobotHost {
+    /// Registers and verifies one candidate; accepted loops go to the back-end (and to the peer).
+    pub(crate) fn process_candidate(
+        &mut self,
+        config: &ResolvedConfig,
+        candidate: PendingCandidate,
+        outbox: &mut Vec<skid_protocol::Message>,
+    ) -> Result<(), RuntimeError> {
+        let pair = (candidate.target, candidate.source);
+        if self.loop_by_pair.contains_key(&pair) {
+            return Ok(());
+        }
+        let (Some(target_cloud), Some(source_cloud)) =
+            (self.cloud_of(candidate.target), self.cloud_of(candidate.source))
+        else {
+            return Ok(());
+        };
+        let prior = candidate.yaw_hint_rad.map(|yaw| {
+            Pose::from_parts(
+                Vector3::zeros().into(),
+                UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
+            )
+        });
+        let guess = match self.plugins.coarse.as_mut() {
+            Some(coarse) => {
+                let started = std::time::Instant::now();
+                let result = coarse.align(target_cloud.view(), source_cloud.view(), prior.as_ref());
+                *self.stage_ms.entry("coarse").or_default() += started.elapsed().as_secs_f64() * 1e3;
+                match result {
+                    Ok(alignment) if alignment.valid => alignment.target_from_source,
+                    Ok(_) | Err(PluginError::InvalidInput(_)) => {
+                        self.stats.coarse_invalid += 1;
+                        return Ok(());
+                    }
+                    Err(error) => return Err(self.plugin_error(config, Slot::Coarse, error)),
+                }
+            }
+            None => prior.unwrap_or_else(Pose::identity),
+        };
+        let target_from_source = match self.plugins.fine.is_some() {
+            true => {
+                let target = self.prepared_cloud(config, candidate.target, &target_cloud)?;
+                let source = self.prepared_cloud(config, candidate.source, &source_cloud)?;
+                let started = std::time::Instant::now();
+                let result = self
+                    .plugins
+                    .fine
+                    .as_mut()
+                    .map(|fine| fine.refine(&target, &source, &guess));
+                *self.stage_ms.entry("fine").or_default() += started.elapsed().as_secs_f64() * 1e3;
+                match result {
+                    Some(Ok(fine)) if fine.converged => fine.target_from_source,
+                    Some(Ok(_)) | Some(Err(PluginError::InvalidInput(_))) => {
+                        self.stats.fine_not_converged += 1;
+                        return Ok(());
+                    }
+                    Some(Err(error)) => return Err(self.plugin_error(config, Slot::Fine, error)),
+                    None => guess,
+                }
+            }
+            false => guess,
+        };
+        let id = LoopId(self.next_loop_id);
+        self.next_loop_id += 1;
+        let closure = LoopClosure {
+            id,
+            target: candidate.target,
+            source: candidate.source,
+            target_from_source,
+            information: loop_information(),
+        };
+        self.loop_by_pair.insert(pair, id);
+        let verdict = match self.plugins.verifier.as_mut() {
+            Some(verifier) => {
+                let started = std::time::Instant::now();
+                let graph = HostGraph {
+                    chains: &self.chains,
+                    backend: self.plugins.backend.as_ref().map(|backend| backend.graph()),
+                    loops: &self.loops,
+                };
+                let submitted = LoopCandidate {
+                    closure: closure.clone(),
+                    target_cloud: target_cloud.view(),
+                    source_cloud: source_cloud.view(),
+                };
+                let verdict = verifier.submit(&submitted, &graph);
+                *self.stage_ms.entry("verifier").or_default() += started.elapsed().as_secs_f64() * 1e3;
+                verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?
+            }
+            None => Verdict {
+                accepted: vec![id],
+                ..Verdict::default()
+            },
+        };
+        self.pending_closures.insert(id, closure);
+        self.apply_verdict(config, verdict, outbox)
+    }
+
+    /// Applies a verdict: retracted loops leave the graph, accepted ones enter it, peers are told.
+    pub(crate) fn apply_verdict(
+        &mut self,
+        config: &ResolvedConfig,
+        verdict: Verdict,
+        outbox: &mut Vec<skid_protocol::Message>,
+    ) -> Result<(), RuntimeError> {
+        self.stats.rejected += verdict.rejected.len();
+        let mut changed = false;
+        let mut accepted_messages = Vec::new();
+        let mut retracted_messages = Vec::new();
+        for id in verdict.retracted {
+            if let Some(closure) = self.loops.remove(&id) {
+                self.stats.retracted += 1;
+                if let Some(backend) = self.plugins.backend.as_mut() {
+                    backend.remove_loop(id).map_err(|e| RuntimeError::Plugin {
+                        robot: self.robot,
+                        slot: Slot::Backend,
+                        plugin: config.slot(Slot::Backend).plugin.clone(),
+                        source: e,
+                    })?;
+                }
+                if closure.is_inter_robot() {
+                    retracted_messages.push(closure.clone());
+                }
+                self.pending_closures.insert(id, closure);
+                changed = true;
+            }
+        }
+        for id in verdict.accepted {
+            let Some(closure) = self.pending_closures.remove(&id) else {
+                continue;
+            };
+            if self.loops.contains_key(&id) {
+                continue;
+            }
+            self.add_loop_to_backend(config, &closure)?;
+            if closure.is_inter_robot() {
+                self.stats.accepted_inter += 1;
+                accepted_messages.push(closure.clone());
+            } else {
+                self.stats.accepted_intra += 1;
+            }
+            self.loops.insert(id, closure);
+            changed = true;
+        }
+        // One message per loop, so each goes to the one peer it concerns.
+        for closure in &accepted_messages {
+            outbox.push(crate::peers::loops_message(
+                self.robot,
+                std::slice::from_ref(closure),
+                &[],
+            ));
+        }
+        for closure in &retracted_messages {
+            outbox.push(crate::peers::loops_message(
+                self.robot,
+                &[],
+                &[(closure.target, closure.source)],
+            ));
+        }
+        if changed {
+            self.optimize(config)?;
+        }
+        Ok(())
+    }
+
+    /// Adds a loop to the back-end, first bringing in the peer's odometry chain if the loop is the first
+    /// one with that peer.
+    pub(crate) fn add_loop_to_backend(
+        &mut self,
+        config: &ResolvedConfig,
+        closure: &LoopClosure,
+    ) -> Result<(), RuntimeError> {
+        if self.plugins.backend.is_none() {
+            return Ok(());
+        }
+        let (own, peer, own_from_peer) = if closure.target.robot == self.robot {
+            (closure.target, closure.source, closure.target_from_source)
+        } else {
+            (
+                closure.source,
+                closure.target,
+                closure.target_from_source.inverse(),
+            )
+        };
+        if peer.robot != self.robot && !self.peers_in_backend.contains(&peer.robot) {
+            self.add_peer_chain(config, own, peer, &own_from_peer)?;
+        }
+        if !self.in_backend.contains(&closure.target) || !self.in_backend.contains(&closure.source) {
+            // A loop to a peer keyframe whose odometry has not arrived yet waits for it.
+            self.deferred_loops.push(closure.clone());
+            return Ok(());
+        }
+        let robot = self.robot;
+        let plugin = config.slot(Slot::Backend).plugin.clone();
+        if let Some(backend) = self.plugins.backend.as_mut() {
+            backend
+                .add_loop(closure.clone())
+                .map_err(|source| RuntimeError::Plugin {
+                    robot,
+                    slot: Slot::Backend,
+                    plugin,
+                    source,
+                })?;
+        }
+        Ok(())
+    }
+
+    /// Adds every known keyframe of `peer`'s robot to the back-end, placed through the first loop.
+    fn add_peer_chain(
+        &mut self,
+        config: &ResolvedConfig,
+        own: KeyframeId,
+        peer: KeyframeId,
+        own_from_peer: &Pose,
+    ) -> Result<(), RuntimeError> {
+        let Some(peer_odometry) = self.chains.pose(peer) else {
+            return Ok(());
+        };
+        let Some(own_pose) = self.keyframe_pose(own.index) else {
+            return Ok(());
+        };
+        // world_self_from_world_peer: where the peer's odometry frame sits in this robot's frame.
+        let frame = own_pose * own_from_peer * peer_odometry.inverse();
+        self.peers_in_backend.insert(peer.robot);
+        self.peer_frames.insert(peer.robot, frame);
+        let chain = self.chains.chain(peer.robot);
+        for (position, &(index, odometry)) in chain.iter().enumerate() {
+            let previous = position.checked_sub(1).map(|p| chain[p]);
+            self.add_peer_keyframe(
+                config,
+                KeyframeId {
+                    robot: peer.robot,
+                    index,
+                },
+                frame * odometry,
+                previous.map(|(i, pose)| (i, pose, odometry)),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Adds one peer keyframe (and its odometry edge from the previous one, when consecutive).
+    pub(crate) fn add_peer_keyframe(
+        &mut self,
+        config: &ResolvedConfig,
+        id: KeyframeId,
+        guess: Pose,
+        previous: Option<(u32, Pose, Pose)>,
+    ) -> Result<(), RuntimeError> {
+        let robot = self.robot;
+        let plugin = config.slot(Slot::Backend).plugin.clone();
+        let error = |source| RuntimeError::Plugin {
+            robot,
+            slot: Slot::Backend,
+            plugin: plugin.clone(),
+            source,
+        };
+        let Some(backend) = self.plugins.backend.as_mut() else {
+            return Ok(());
+        };
+        if self.in_backend.contains(&id) {
+            return Ok(());
+        }
+        backend.add_keyframe(id, guess).map_err(error)?;
+        self.in_backend.insert(id);
+        if let Some((previous_index, previous_pose, pose)) = previous.filter(|(i, _, _)| i + 1 == id.index) {
+            let step = previous_pose.inverse() * pose;
+            let covariance = self
+                .chains
+                .step_covariance(id)
+                .unwrap_or_else(|| crate::settings::odometry_step_covariance(&config.loops, &step));
+            let measurement = skid_core::slots::OdometryMeasurement {
+                target: KeyframeId {
+                    robot: id.robot,
+                    index: previous_index,
+                },
+                source: id,
+                target_from_source: step,
+                information: crate::settings::information_from_covariance(&covariance),
+            };
+            backend.add_odometry(measurement).map_err(error)?;
+        }
+        Ok(())
+    }
+}

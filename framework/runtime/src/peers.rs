@@ -1,0 +1,304 @@
+//! Messages to and from peers: building the protocol messages a robot sends (descriptors, odometry
+//! chain steps, cloud requests and replies, loops) and acting on the ones it receives.
+
+use std::sync::Arc;
+
+use skid_config::ResolvedConfig;
+use skid_core::slots::{DescriptorBuf, Destination, LoopClosure};
+use skid_core::{Cloud, Information, Keyframe, KeyframeId, LoopId, Pose, RobotId};
+use skid_protocol::{
+    ChainEdge, CloudMsg, CloudRequest, CompressedPoints, DescriptorBatch, DescriptorEncoding,
+    DescriptorEntry, DescriptorValues, InformationMsg, LoopMsg, Loops, Message, OdomChain, PoseMsg,
+};
+
+use crate::RuntimeError;
+use crate::host::{PendingCandidate, RobotHost};
+use crate::settings::information_from_covariance;
+
+/// Resolution of clouds sent to peers, in metres.
+pub const CLOUD_RESOLUTION_M: f32 = 0.01;
+
+/// A keyframe's descriptor, for every peer.
+pub fn descriptor_message(robot: RobotId, keyframe: &Keyframe, descriptor: &DescriptorBuf) -> Message {
+    let values = DescriptorValues::encode(&descriptor.values, DescriptorEncoding::F32)
+        .unwrap_or(DescriptorValues::F32(descriptor.values.clone()));
+    Message::Descriptors(DescriptorBatch {
+        robot,
+        kind: descriptor.kind.clone(),
+        entries: vec![DescriptorEntry {
+            keyframe_index: keyframe.id.index,
+            stamp_nanos: keyframe.stamp_nanos,
+            values,
+        }],
+    })
+}
+
+/// The odometry step into keyframe `index` (from `index - 1`; none for the first keyframe), with the
+/// pose of the chain's first keyframe so a peer can place the chain before any loop.
+pub fn chain_message(
+    robot: RobotId,
+    index: u32,
+    world_from_keyframe: &Pose,
+    step: Pose,
+    covariance: Information,
+) -> Message {
+    let (from_index, edges) = match index {
+        0 => (0, Vec::new()),
+        _ => (
+            index - 1,
+            vec![ChainEdge {
+                target_from_source: PoseMsg::from_pose(&step),
+                information: InformationMsg::from_information(&information_from_covariance(&covariance)),
+            }],
+        ),
+    };
+    Message::OdomChain(OdomChain {
+        robot,
+        from_index,
+        to_index: index,
+        edges,
+        world_from_first: PoseMsg::from_pose(&(world_from_keyframe * step.inverse())),
+    })
+}
+
+/// Where a message goes: broadcasts to every peer, requests and loops to the robot concerned.
+pub fn destination(robot: RobotId, message: &Message) -> Destination {
+    match message {
+        Message::CloudRequest(request) => request
+            .keyframes
+            .first()
+            .map_or(Destination::AllPeers, |id| Destination::Robot(id.robot)),
+        Message::Loops(loops) => loops
+            .accepted
+            .first()
+            .map(|l| (l.target, l.source))
+            .or_else(|| loops.retracted.first().copied())
+            .map_or(Destination::AllPeers, |(target, source)| {
+                Destination::Robot(if target.robot == robot {
+                    source.robot
+                } else {
+                    target.robot
+                })
+            }),
+        _ => Destination::AllPeers,
+    }
+}
+
+/// A request for one peer keyframe's cloud.
+pub fn cloud_request(requester: RobotId, keyframe: KeyframeId) -> Message {
+    Message::CloudRequest(CloudRequest {
+        requester,
+        keyframes: vec![keyframe],
+    })
+}
+
+/// Accepted and retracted loops for the peer involved.
+pub fn loops_message(
+    robot: RobotId,
+    accepted: &[LoopClosure],
+    retracted: &[(KeyframeId, KeyframeId)],
+) -> Message {
+    Message::Loops(Loops {
+        robot,
+        accepted: accepted
+            .iter()
+            .map(|closure| LoopMsg {
+                target: closure.target,
+                source: closure.source,
+                target_from_source: PoseMsg::from_pose(&closure.target_from_source),
+                information: InformationMsg::from_information(&closure.information),
+                fitness_m2: f32::NAN,
+            })
+            .collect(),
+        retracted: retracted.to_vec(),
+    })
+}
+
+impl RobotHost {
+    /// Acts on one message from a peer; messages that do not make sense are logged and dropped.
+    pub fn handle_message(
+        &mut self,
+        config: &ResolvedConfig,
+        from: RobotId,
+        message: Message,
+        replies: &mut Vec<(RobotId, Message)>,
+        outbox: &mut Vec<Message>,
+    ) -> Result<(), RuntimeError> {
+        match message {
+            Message::Hello(_) | Message::Heartbeat(_) => {}
+            Message::Descriptors(batch) => {
+                let own_kind = self.plugins.descriptor.as_ref().map(|d| d.kind().to_owned());
+                if own_kind.as_deref() != Some(batch.kind.as_str()) {
+                    tracing::debug!(robot = %self.robot, %from, kind = %batch.kind, "descriptors of another kind ignored");
+                    return Ok(());
+                }
+                let Some(index) = self.index.as_mut() else {
+                    return Ok(());
+                };
+                for entry in batch.entries {
+                    let Ok(values) = entry.values.decode() else {
+                        continue;
+                    };
+                    let id = KeyframeId {
+                        robot: batch.robot,
+                        index: entry.keyframe_index,
+                    };
+                    if let Err(error) = index.insert(
+                        id,
+                        DescriptorBuf {
+                            kind: batch.kind.clone(),
+                            values,
+                        },
+                    ) {
+                        tracing::warn!(robot = %self.robot, %from, %error, "peer descriptor refused");
+                    }
+                }
+            }
+            Message::CloudRequest(request) => {
+                for id in request.keyframes.into_iter().filter(|id| id.robot == self.robot) {
+                    let Some(keyframe) = self.keyframes.get(&id.index) else {
+                        continue;
+                    };
+                    let Ok(points) =
+                        CompressedPoints::encode(&keyframe.cloud.points, CLOUD_RESOLUTION_M, false)
+                    else {
+                        continue;
+                    };
+                    replies.push((
+                        request.requester,
+                        Message::Cloud(CloudMsg {
+                            keyframe: id,
+                            stamp_nanos: keyframe.stamp_nanos,
+                            world_from_sensor: PoseMsg::from_pose(&keyframe.world_from_sensor),
+                            points,
+                        }),
+                    ));
+                }
+            }
+            Message::Cloud(cloud) => {
+                let Ok(points) = cloud.points.decode() else {
+                    return Ok(());
+                };
+                self.peer_clouds
+                    .insert(cloud.keyframe, Arc::new(Cloud::new(points)));
+                self.requested.remove(&cloud.keyframe);
+                let ready: Vec<PendingCandidate> = self
+                    .pending
+                    .iter()
+                    .copied()
+                    .filter(|p| p.target == cloud.keyframe)
+                    .collect();
+                self.pending.retain(|p| p.target != cloud.keyframe);
+                for candidate in ready {
+                    self.process_candidate(config, candidate, outbox)?;
+                }
+            }
+            Message::OdomChain(chain) => self.on_chain(config, chain)?,
+            Message::Loops(loops) => self.on_peer_loops(config, loops, outbox)?,
+        }
+        Ok(())
+    }
+
+    /// Extends a peer's odometry chain (and its copy in the back-end, once it is there).
+    fn on_chain(&mut self, config: &ResolvedConfig, chain: OdomChain) -> Result<(), RuntimeError> {
+        let Some(mut pose) = chain.world_from_first.to_pose() else {
+            return Ok(());
+        };
+        let robot = chain.robot;
+        let first = KeyframeId {
+            robot,
+            index: chain.from_index,
+        };
+        if !self.chains.contains(first) {
+            self.chains.insert(first, pose, Information::identity() * 1e-6);
+        }
+        for (offset, edge) in chain.edges.iter().enumerate() {
+            let (Some(step), Some(information)) = (
+                edge.target_from_source.to_pose(),
+                edge.information.to_information(),
+            ) else {
+                return Ok(());
+            };
+            let index = chain.from_index + offset as u32 + 1;
+            let previous = pose;
+            pose *= step;
+            let covariance = information
+                .try_inverse()
+                .unwrap_or_else(|| Information::identity() * 1e-4);
+            let id = KeyframeId { robot, index };
+            self.chains.insert(id, pose, covariance);
+            if let Some(frame) = self.peer_frames.get(&robot).copied() {
+                let guess = self
+                    .plugins
+                    .backend
+                    .as_ref()
+                    .and_then(|b| {
+                        b.graph().pose(KeyframeId {
+                            robot,
+                            index: index - 1,
+                        })
+                    })
+                    .map_or(frame * pose, |p| p * step);
+                self.add_peer_keyframe(config, id, guess, Some((index - 1, previous, pose)))?;
+            }
+        }
+        self.retry_deferred_loops(config)
+    }
+
+    /// Loops a peer accepted (or retracted) with this robot: both sides keep the same set.
+    fn on_peer_loops(
+        &mut self,
+        config: &ResolvedConfig,
+        loops: Loops,
+        outbox: &mut Vec<Message>,
+    ) -> Result<(), RuntimeError> {
+        let _ = outbox;
+        for message in loops.accepted {
+            let pair = (message.target, message.source);
+            if self.loop_by_pair.contains_key(&pair) {
+                continue;
+            }
+            let (Some(target_from_source), Some(information)) = (
+                message.target_from_source.to_pose(),
+                message.information.to_information(),
+            ) else {
+                continue;
+            };
+            let id = LoopId(self.next_loop_id);
+            self.next_loop_id += 1;
+            let closure = LoopClosure {
+                id,
+                target: message.target,
+                source: message.source,
+                target_from_source,
+                information,
+            };
+            self.loop_by_pair.insert(pair, id);
+            self.stats.received_from_peers += 1;
+            self.add_loop_to_backend(config, &closure)?;
+            self.loops.insert(id, closure);
+        }
+        for pair in loops.retracted {
+            let Some(id) = self.loop_by_pair.get(&pair).copied() else {
+                continue;
+            };
+            if self.loops.remove(&id).is_some() {
+                if let Some(backend) = self.plugins.backend.as_mut() {
+                    // The loop may still be deferred (never added); a refusal is harmless then.
+                    let _ = backend.remove_loop(id);
+                }
+                self.stats.retracted += 1;
+            }
+        }
+        self.optimize(config)
+    }
+
+    /// Adds deferred loops whose keyframes are now all in the back-end.
+    fn retry_deferred_loops(&mut self, config: &ResolvedConfig) -> Result<(), RuntimeError> {
+        let deferred = std::mem::take(&mut self.deferred_loops);
+        for closure in deferred {
+            self.add_loop_to_backend(config, &closure)?;
+        }
+        Ok(())
+    }
+}

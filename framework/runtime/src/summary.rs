@@ -1,0 +1,89 @@
+//! The run's summary: per robot what was read, estimated and exchanged, and how long each stage took.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+use skid_core::{Pose, Slot};
+use skid_protocol::CountersSnapshot;
+
+use crate::fleet::Fleet;
+use crate::host::{LoopStats, RobotHost};
+
+/// What one robot did.
+#[derive(Clone, Debug, Serialize)]
+pub struct RobotSummary {
+    pub robot: u32,
+    pub scans: usize,
+    pub keyframes: usize,
+    pub mean_points_per_scan: f64,
+    /// Total milliseconds spent per stage.
+    pub stage_ms: BTreeMap<String, f64>,
+    pub loops: LoopStats,
+    pub path_length_m: f64,
+    /// RMSE of position of the optimised trajectory after aligning the first poses, when ground truth
+    /// exists (the evaluation crate adds Umeyama-aligned ATE/ARE and the α/β metric).
+    pub ate_first_pose_aligned_m: Option<f64>,
+    pub messages: CountersSnapshot,
+}
+
+/// The summary of a whole run.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunSummary {
+    pub name: String,
+    pub robots: Vec<RobotSummary>,
+    pub wall_s: f64,
+    pub slots: BTreeMap<String, String>,
+}
+
+impl RunSummary {
+    pub fn of(fleet: &Fleet, wall_s: f64) -> Self {
+        Self {
+            name: fleet.config.run.name.clone(),
+            robots: fleet.robots.iter().map(robot_summary).collect(),
+            wall_s,
+            slots: Slot::ALL
+                .iter()
+                .map(|&slot| (slot.key().to_owned(), fleet.config.slot(slot).plugin.clone()))
+                .collect(),
+        }
+    }
+}
+
+fn robot_summary(host: &RobotHost) -> RobotSummary {
+    let trajectory = host.optimised_trajectory();
+    let path_length_m = trajectory
+        .windows(2)
+        .map(|p| (p[1].1.translation.vector - p[0].1.translation.vector).norm())
+        .sum();
+    let truth: Vec<Option<Pose>> = host.scans.iter().map(|s| s.ground_truth).collect();
+    RobotSummary {
+        robot: host.robot.0,
+        scans: host.scans.len(),
+        keyframes: host.keyframes.len(),
+        mean_points_per_scan: if host.scans.is_empty() {
+            0.0
+        } else {
+            host.points_read as f64 / host.scans.len() as f64
+        },
+        stage_ms: host.stage_ms.iter().map(|(k, v)| ((*k).to_owned(), *v)).collect(),
+        loops: host.stats.clone(),
+        path_length_m,
+        ate_first_pose_aligned_m: ate_first_pose_aligned(&trajectory, &truth),
+        messages: host.protocol.counters().snapshot(),
+    }
+}
+
+fn ate_first_pose_aligned(trajectory: &[(u64, Pose)], truth: &[Option<Pose>]) -> Option<f64> {
+    let pairs: Vec<(Pose, Pose)> = trajectory
+        .iter()
+        .zip(truth)
+        .filter_map(|((_, e), t)| t.map(|t| (*e, t)))
+        .collect();
+    let (first_estimate, first_truth) = pairs.first()?;
+    let truth_from_estimate = first_truth * first_estimate.inverse();
+    let sum_sq: f64 = pairs
+        .iter()
+        .map(|(e, t)| ((truth_from_estimate * e).translation.vector - t.translation.vector).norm_squared())
+        .sum();
+    Some((sum_sq / pairs.len() as f64).sqrt())
+}
