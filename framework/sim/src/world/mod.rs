@@ -10,10 +10,9 @@ mod planetary;
 pub mod shapes;
 mod urban;
 
-use std::collections::HashMap;
 use std::fmt;
 use std::str::FromStr;
-use std::sync::{Arc, Mutex, Weak};
+use std::sync::{Arc, Mutex};
 
 use serde::{Deserialize, Serialize};
 
@@ -151,7 +150,10 @@ impl fmt::Debug for World {
     }
 }
 
-static CACHE: Mutex<Option<HashMap<(WorldKind, u64), Weak<World>>>> = Mutex::new(None);
+/// Recently used worlds, most recent last; a few are kept alive so that robots, tools and tests that
+/// ask again do not pay for generation twice.
+static CACHE: Mutex<Vec<((WorldKind, u64), Arc<World>)>> = Mutex::new(Vec::new());
+const CACHED_WORLDS: usize = 3;
 
 impl World {
     /// Generates the world of `kind` for `seed`. The same arguments always give the same world.
@@ -167,13 +169,18 @@ impl World {
     /// The world of `kind` for `seed`, shared with every other holder in the process (robots of one
     /// fleet build it once).
     pub fn shared(kind: WorldKind, seed: u64) -> Arc<Self> {
-        let mut guard = CACHE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let cache = guard.get_or_insert_with(HashMap::new);
-        if let Some(world) = cache.get(&(kind, seed)).and_then(Weak::upgrade) {
+        let mut cache = CACHE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(index) = cache.iter().position(|(key, _)| *key == (kind, seed)) {
+            let entry = cache.remove(index);
+            let world = Arc::clone(&entry.1);
+            cache.push(entry);
             return world;
         }
         let world = Arc::new(Self::generate(kind, seed));
-        cache.insert((kind, seed), Arc::downgrade(&world));
+        cache.push(((kind, seed), Arc::clone(&world)));
+        if cache.len() > CACHED_WORLDS {
+            cache.remove(0);
+        }
         world
     }
 
