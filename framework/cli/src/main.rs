@@ -62,6 +62,37 @@ enum Command {
     /// Show or check configurations.
     #[command(subcommand)]
     Config(ConfigCommand),
+    /// Print the descriptors of point-cloud files (KITTI .bin, PCD, PLY) as JSON lines.
+    Describe {
+        /// Descriptor plugin (solid, scan_context, iris, …).
+        #[arg(long, default_value = "solid")]
+        descriptor: String,
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        #[command(flatten)]
+        layers: LayerArgs,
+    },
+    /// Register SOURCE to TARGET (point-cloud files) and print target_from_source and stage timings.
+    Register {
+        target: PathBuf,
+        source: PathBuf,
+        /// Coarse registration plugin, or `none` to start from the identity.
+        #[arg(long, default_value = "none")]
+        coarse: String,
+        /// Fine registration plugin, or `none`.
+        #[arg(long, default_value = "gicp")]
+        fine: String,
+        #[command(flatten)]
+        layers: LayerArgs,
+    },
+    /// Run the configured odometry alone on a KITTI-format folder; writes TUM and KITTI trajectories.
+    Odometry {
+        folder: PathBuf,
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        layers: LayerArgs,
+    },
 }
 
 #[derive(Subcommand, Debug)]
@@ -113,6 +144,21 @@ fn main() -> ExitCode {
             profile,
             layers,
         }) => commands::config_check(&registry, &file, profile, &layers),
+        Command::Describe {
+            descriptor,
+            files,
+            layers,
+        } => commands::tools::describe(&registry, &descriptor, &files, &layers),
+        Command::Register {
+            target,
+            source,
+            coarse,
+            fine,
+            layers,
+        } => commands::tools::register(&registry, &target, &source, Some(&coarse), Some(&fine), &layers),
+        Command::Odometry { folder, out, layers } => {
+            commands::tools::odometry(&registry, &folder, out.as_deref(), &layers)
+        }
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

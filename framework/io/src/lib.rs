@@ -16,6 +16,7 @@
 //! expected and found. Point readers never pass NaN/Inf points through silently: see
 //! [`CloudReadOptions`].
 
+mod any;
 mod cloud;
 pub mod data_dir;
 mod error;
@@ -28,6 +29,7 @@ mod text;
 pub mod toro;
 pub mod trajectory;
 
+pub use any::{CLOUD_EXTENSIONS, read_cloud};
 pub use cloud::{Cloud, CloudReadOptions, CloudReport, NonFinitePolicy};
 pub use data_dir::{DATA_DIR_VAR, data_dir, data_path};
 pub use error::{IoError, Location};

@@ -1,5 +1,7 @@
 //! The subcommands' bodies.
 
+pub mod tools;
+
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -19,7 +21,7 @@ pub fn registry(plugin_libs: &[PathBuf]) -> Result<Registry> {
     Ok(registry)
 }
 
-fn sources(profile: Option<String>, layers: &LayerArgs) -> ConfigSources {
+pub(crate) fn sources(profile: Option<String>, layers: &LayerArgs) -> ConfigSources {
     let mut sources = ConfigSources::discover();
     if layers.config_dir.is_some() {
         sources.config_dir = layers.config_dir.clone();
@@ -30,7 +32,7 @@ fn sources(profile: Option<String>, layers: &LayerArgs) -> ConfigSources {
     sources
 }
 
-fn load(sources: &ConfigSources, registry: &Registry) -> Result<ResolvedConfig> {
+pub(crate) fn load(sources: &ConfigSources, registry: &Registry) -> Result<ResolvedConfig> {
     Ok(sources.load(registry)?)
 }
 
