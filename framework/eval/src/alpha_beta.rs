@@ -60,7 +60,10 @@ pub struct AlphaBetaResult {
 }
 
 /// Computes the α/β metric. `alignment` is the Umeyama variant for both robots (the paper uses SE(3)).
-pub fn alpha_beta(input: &AlphaBetaInput<'_>, alignment: AlignmentKind) -> Result<AlphaBetaResult, EvalError> {
+pub fn alpha_beta(
+    input: &AlphaBetaInput<'_>,
+    alignment: AlignmentKind,
+) -> Result<AlphaBetaResult, EvalError> {
     if !pose_is_finite(&input.alpha_from_beta) {
         return Err(EvalError::NonFinite {
             what: "alpha_from_beta transform",

@@ -81,11 +81,19 @@ pub struct ApeResult {
 /// ATE and ARE of the associated estimate `est` against `gt` after the given alignment.
 pub fn ape(gt: &[Pose], est: &[Pose], alignment: AlignmentKind) -> Result<ApeResult, EvalError> {
     let aligned = align(gt, est, alignment)?;
-    ape_of_aligned(gt, aligned.est_aligned, AlignmentSummary::new(alignment, &aligned.gt_from_est))
+    ape_of_aligned(
+        gt,
+        aligned.est_aligned,
+        AlignmentSummary::new(alignment, &aligned.gt_from_est),
+    )
 }
 
 /// ATE and ARE of an estimate already expressed in the ground-truth frame.
-pub fn ape_of_aligned(gt: &[Pose], est_aligned: Vec<Pose>, alignment: AlignmentSummary) -> Result<ApeResult, EvalError> {
+pub fn ape_of_aligned(
+    gt: &[Pose],
+    est_aligned: Vec<Pose>,
+    alignment: AlignmentSummary,
+) -> Result<ApeResult, EvalError> {
     check_pairs(gt, &est_aligned)?;
     let translation_errors_m: Vec<f64> = gt
         .iter()

@@ -54,7 +54,11 @@ impl Associated {
 
 fn check_stamped(what: &'static str, poses: &[StampedPose]) -> Result<(), EvalError> {
     if poses.is_empty() {
-        return Err(EvalError::TooFew { what, needed: 1, got: 0 });
+        return Err(EvalError::TooFew {
+            what,
+            needed: 1,
+            got: 0,
+        });
     }
     if let Some(index) = poses.iter().position(|p| !p.stamp_s.is_finite()) {
         return Err(EvalError::NonFinite { what, index });
@@ -94,13 +98,20 @@ fn nearest(stamps: &[f64], sorted: &[usize], query: f64) -> usize {
 /// Associates by timestamp, as evo's `associate_trajectories` does: every pose of the shorter
 /// trajectory (ground truth when equally long) takes the pose of the other with the nearest stamp, kept
 /// when the difference is at most `max_diff_s`. A pose of the longer trajectory may be used twice.
-pub fn associate_by_time(gt: &[StampedPose], est: &[StampedPose], options: &TimeAssociation) -> Result<Associated, EvalError> {
+pub fn associate_by_time(
+    gt: &[StampedPose],
+    est: &[StampedPose],
+    options: &TimeAssociation,
+) -> Result<Associated, EvalError> {
     check_stamped("ground-truth trajectory", gt)?;
     check_stamped("estimated trajectory", est)?;
     if !(options.max_diff_s.is_finite() && options.max_diff_s >= 0.0) {
         return Err(EvalError::InvalidOption {
             name: "max_diff_s",
-            reason: format!("{} is not a finite non-negative number of seconds", options.max_diff_s),
+            reason: format!(
+                "{} is not a finite non-negative number of seconds",
+                options.max_diff_s
+            ),
         });
     }
     if !options.offset_s.is_finite() {
@@ -124,7 +135,11 @@ pub fn associate_by_time(gt: &[StampedPose], est: &[StampedPose], options: &Time
     for (i_short, &stamp) in short.iter().enumerate() {
         let i_long = nearest(long, &sorted, stamp);
         if (long[i_long] - stamp).abs() <= options.max_diff_s {
-            indices.push(if est_longer { (i_short, i_long) } else { (i_long, i_short) });
+            indices.push(if est_longer {
+                (i_short, i_long)
+            } else {
+                (i_long, i_short)
+            });
         }
     }
     if indices.is_empty() {

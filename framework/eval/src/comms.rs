@@ -80,7 +80,10 @@ pub struct LatencyBin {
 
 /// Groups samples into distance bins `[k·w, (k+1)·w)` of width `bin_width_m` and summarises each
 /// non-empty bin, in order of distance. Negative or non-finite distances and latencies are errors.
-pub fn latency_vs_distance(samples: &[LatencySample], bin_width_m: f64) -> Result<Vec<LatencyBin>, EvalError> {
+pub fn latency_vs_distance(
+    samples: &[LatencySample],
+    bin_width_m: f64,
+) -> Result<Vec<LatencyBin>, EvalError> {
     if !(bin_width_m.is_finite() && bin_width_m > 0.0) {
         return Err(EvalError::InvalidOption {
             name: "bin_width_m",

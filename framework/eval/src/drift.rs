@@ -70,7 +70,10 @@ fn segment_error(gt: &[Pose], est: &[Pose], i: usize, j: usize) -> (f64, f64) {
     let gt_motion = gt[i].inverse() * gt[j];
     let est_motion = est[i].inverse() * est[j];
     let error = est_motion.inverse() * gt_motion;
-    (error.translation.vector.norm(), rotation_angle_rad(&error.rotation))
+    (
+        error.translation.vector.norm(),
+        rotation_angle_rad(&error.rotation),
+    )
 }
 
 /// Segment and end-point drift of the associated estimate `est` against `gt`.
@@ -89,7 +92,11 @@ pub fn drift(gt: &[Pose], est: &[Pose], options: &DriftOptions) -> Result<DriftR
             reason: "must be at least 1".into(),
         });
     }
-    if let Some(bad) = options.segment_lengths_m.iter().find(|l| !(l.is_finite() && **l > 0.0)) {
+    if let Some(bad) = options
+        .segment_lengths_m
+        .iter()
+        .find(|l| !(l.is_finite() && **l > 0.0))
+    {
         return Err(EvalError::InvalidOption {
             name: "segment_lengths_m",
             reason: format!("{bad} is not a positive length"),

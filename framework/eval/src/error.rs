@@ -31,7 +31,9 @@ pub enum EvalError {
     Degenerate { reason: String },
 
     /// No timestamp of one trajectory lies within the allowed difference of the other's.
-    #[error("no matching timestamps between the trajectories (max difference {max_diff_s} s, offset {offset_s} s)")]
+    #[error(
+        "no matching timestamps between the trajectories (max difference {max_diff_s} s, offset {offset_s} s)"
+    )]
     NoAssociation { max_diff_s: f64, offset_s: f64 },
 
     /// An option has a value the metric cannot use.

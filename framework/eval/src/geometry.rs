@@ -57,7 +57,10 @@ mod tests {
     fn angle_is_exact_for_small_and_large_rotations() {
         for angle in [0.0, 1e-9, 1e-4, 0.5, 3.0, std::f64::consts::PI] {
             let q = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
-            assert!((rotation_angle_rad(&q) - angle).abs() < 1e-15 + 1e-12 * angle, "angle {angle}");
+            assert!(
+                (rotation_angle_rad(&q) - angle).abs() < 1e-15 + 1e-12 * angle,
+                "angle {angle}"
+            );
             // The inverse rotation has the same angle.
             assert!((rotation_angle_rad(&q.inverse()) - angle).abs() < 1e-12);
         }
@@ -65,7 +68,11 @@ mod tests {
 
     #[test]
     fn similarity_scales_positions_only() {
-        let sim = Similarity3::new(Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2), 2.0);
+        let sim = Similarity3::new(
+            Vector3::new(1.0, 0.0, 0.0),
+            Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+            2.0,
+        );
         let pose = Isometry3::new(Vector3::new(1.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 0.1));
         let out = apply_similarity(&sim, &pose);
         // 2·Rz(90°)·(1,0,0) + (1,0,0) = (1,2,0).
@@ -73,6 +80,9 @@ mod tests {
         assert!((rotation_angle_rad(&out.rotation) - (std::f64::consts::FRAC_PI_2 + 0.1)).abs() < 1e-12);
         assert!(check_poses("p", &[out]).is_ok());
         let bad = Isometry3::new(Vector3::new(f64::NAN, 0.0, 0.0), Vector3::zeros());
-        assert!(matches!(check_poses("p", &[out, bad]), Err(EvalError::NonFinite { index: 1, .. })));
+        assert!(matches!(
+            check_poses("p", &[out, bad]),
+            Err(EvalError::NonFinite { index: 1, .. })
+        ));
     }
 }

@@ -32,12 +32,15 @@ pub mod umeyama;
 pub use alpha_beta::{AlphaBetaInput, AlphaBetaResult, TransformError, alpha_beta};
 pub use ape::{Aligned, AlignmentSummary, ApeResult, align, ape, ape_of_aligned};
 pub use associate::{Associated, DEFAULT_MAX_DIFF_S, TimeAssociation, associate_by_index, associate_by_time};
-pub use comms::{DescriptorMemory, LatencyBin, LatencySample, descriptor_memory, descriptor_memory_of, latency_vs_distance};
+pub use comms::{
+    DescriptorMemory, LatencyBin, LatencySample, descriptor_memory, descriptor_memory_of, latency_vs_distance,
+};
 pub use drift::{DriftOptions, DriftResult, SegmentDrift, drift};
 pub use error::EvalError;
 pub use pr::{PrCurve, PrPoint, ScoredCandidate, pr_curve};
 pub use registration::{
-    RegistrationError, RegistrationPair, RegistrationStats, RegistrationThresholds, registration_error, registration_stats,
+    RegistrationError, RegistrationPair, RegistrationStats, RegistrationThresholds, registration_error,
+    registration_stats,
 };
 pub use report::{AssociationMode, EvalOptions, EvalReport, evaluate, evaluate_files};
 pub use rpe::{DeltaUnit, RpeOptions, RpeResult, rpe, rpe_pairs};

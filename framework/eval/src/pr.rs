@@ -61,7 +61,11 @@ pub struct PrCurve {
 }
 
 fn point(threshold: Option<f64>, tp: usize, fp: usize, positives: usize) -> PrPoint {
-    let precision = if tp + fp == 0 { 1.0 } else { tp as f64 / (tp + fp) as f64 };
+    let precision = if tp + fp == 0 {
+        1.0
+    } else {
+        tp as f64 / (tp + fp) as f64
+    };
     let recall = tp as f64 / positives as f64;
     let f1 = if precision + recall > 0.0 {
         2.0 * precision * recall / (precision + recall)

@@ -76,7 +76,10 @@ pub struct RegistrationStats {
 }
 
 /// Evaluates `pairs` against `thresholds`. No pair, non-finite poses or thresholds are errors.
-pub fn registration_stats(pairs: &[RegistrationPair], thresholds: &RegistrationThresholds) -> Result<RegistrationStats, EvalError> {
+pub fn registration_stats(
+    pairs: &[RegistrationPair],
+    thresholds: &RegistrationThresholds,
+) -> Result<RegistrationStats, EvalError> {
     if pairs.is_empty() {
         return Err(EvalError::TooFew {
             what: "registration pairs",
@@ -111,7 +114,9 @@ pub fn registration_stats(pairs: &[RegistrationPair], thresholds: &RegistrationT
     let successful: Vec<&RegistrationError> = errors
         .iter()
         .flatten()
-        .filter(|e| e.translation_m < thresholds.max_translation_m && e.rotation_deg < thresholds.max_rotation_deg)
+        .filter(|e| {
+            e.translation_m < thresholds.max_translation_m && e.rotation_deg < thresholds.max_rotation_deg
+        })
         .collect();
     let successes = successful.len();
     let mean = |f: fn(&RegistrationError) -> f64| {

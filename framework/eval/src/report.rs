@@ -76,12 +76,17 @@ pub struct EvalReport {
     pub est_aligned: Vec<Pose>,
 }
 
-fn associate(gt: &Trajectory, est: &Trajectory, options: &EvalOptions) -> Result<(Associated, AssociationMode), EvalError> {
+fn associate(
+    gt: &Trajectory,
+    est: &Trajectory,
+    options: &EvalOptions,
+) -> Result<(Associated, AssociationMode), EvalError> {
     let stamped = gt.stamped().zip(est.stamped());
     match (options.association, stamped) {
-        (AssociationMode::Auto | AssociationMode::Timestamps, Some((gt_s, est_s))) => {
-            Ok((associate_by_time(&gt_s, &est_s, &options.time)?, AssociationMode::Timestamps))
-        }
+        (AssociationMode::Auto | AssociationMode::Timestamps, Some((gt_s, est_s))) => Ok((
+            associate_by_time(&gt_s, &est_s, &options.time)?,
+            AssociationMode::Timestamps,
+        )),
         (AssociationMode::Timestamps, None) => Err(EvalError::InvalidOption {
             name: "association",
             reason: "timestamp association needs stamps in both trajectories (KITTI files have none)".into(),
@@ -148,16 +153,34 @@ impl EvalReport {
     pub fn to_markdown(&self) -> String {
         let mut text = String::from("# Trajectory evaluation\n\n");
         let path = |p: &Option<String>| p.clone().unwrap_or_else(|| "(in memory)".into());
-        let _ = writeln!(text, "- ground truth: `{}` ({:?}, {} poses)", path(&self.gt_path), self.gt_format, self.gt_poses);
-        let _ = writeln!(text, "- estimate: `{}` ({:?}, {} poses)", path(&self.est_path), self.est_format, self.est_poses);
-        let _ = writeln!(text, "- associated pairs: {} (by {:?})", self.associated_poses, self.association);
+        let _ = writeln!(
+            text,
+            "- ground truth: `{}` ({:?}, {} poses)",
+            path(&self.gt_path),
+            self.gt_format,
+            self.gt_poses
+        );
+        let _ = writeln!(
+            text,
+            "- estimate: `{}` ({:?}, {} poses)",
+            path(&self.est_path),
+            self.est_format,
+            self.est_poses
+        );
+        let _ = writeln!(
+            text,
+            "- associated pairs: {} (by {:?})",
+            self.associated_poses, self.association
+        );
         let a = &self.alignment;
         let _ = writeln!(
             text,
             "- alignment {:?}: rotation {:.4}°, translation [{:.4}, {:.4}, {:.4}] m, scale {:.6}\n",
             a.kind, a.rotation_angle_deg, a.translation_m[0], a.translation_m[1], a.translation_m[2], a.scale
         );
-        text.push_str("| metric | rmse | mean | median | std | min | max | n |\n|---|---|---|---|---|---|---|---|\n");
+        text.push_str(
+            "| metric | rmse | mean | median | std | min | max | n |\n|---|---|---|---|---|---|---|---|\n",
+        );
         stats_row(&mut text, "ATE (m)", &self.ate_m);
         stats_row(&mut text, "ARE (deg)", &self.are_deg);
         let unit = match self.rpe.options.unit {
@@ -165,14 +188,30 @@ impl EvalReport {
             crate::rpe::DeltaUnit::Metres => "m",
         };
         let delta = self.rpe.options.delta;
-        stats_row(&mut text, &format!("RPE trans, Δ={delta} {unit} (m)"), &self.rpe.translation_m);
-        stats_row(&mut text, &format!("RPE rot, Δ={delta} {unit} (deg)"), &self.rpe.rotation_deg);
+        stats_row(
+            &mut text,
+            &format!("RPE trans, Δ={delta} {unit} (m)"),
+            &self.rpe.translation_m,
+        );
+        stats_row(
+            &mut text,
+            &format!("RPE rot, Δ={delta} {unit} (deg)"),
+            &self.rpe.rotation_deg,
+        );
         text.push('\n');
         match (&self.drift, &self.drift_error) {
             (Some(d), _) => {
-                let _ = write!(text, "Drift over {:.1} m of path: end point {:.3} %", d.path_length_m, d.endpoint_percent);
+                let _ = write!(
+                    text,
+                    "Drift over {:.1} m of path: end point {:.3} %",
+                    d.path_length_m, d.endpoint_percent
+                );
                 if let (Some(t), Some(r)) = (d.translation_percent, d.rotation_deg_per_100m) {
-                    let _ = write!(text, "; KITTI segments ({}) {t:.3} %, {r:.4} deg/100 m", d.segments);
+                    let _ = write!(
+                        text,
+                        "; KITTI segments ({}) {t:.3} %, {r:.4} deg/100 m",
+                        d.segments
+                    );
                 }
                 text.push('\n');
             }

@@ -82,7 +82,10 @@ pub fn rpe_pairs(poses: &[Pose], options: &RpeOptions) -> Result<Vec<(usize, usi
             if options.delta.fract() != 0.0 || options.delta > n as f64 {
                 return Err(EvalError::InvalidOption {
                     name: "delta",
-                    reason: format!("{} frames is not a whole number of frames within the {n} poses", options.delta),
+                    reason: format!(
+                        "{} frames is not a whole number of frames within the {n} poses",
+                        options.delta
+                    ),
                 });
             }
             let step = options.delta as usize;

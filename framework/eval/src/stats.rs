@@ -26,7 +26,11 @@ impl ErrorStats {
     /// Summarises `errors`; an empty or non-finite sequence is an error.
     pub fn from_errors(what: &'static str, errors: &[f64]) -> Result<Self, EvalError> {
         if errors.is_empty() {
-            return Err(EvalError::TooFew { what, needed: 1, got: 0 });
+            return Err(EvalError::TooFew {
+                what,
+                needed: 1,
+                got: 0,
+            });
         }
         if let Some(index) = errors.iter().position(|e| !e.is_finite()) {
             return Err(EvalError::NonFinite { what, index });
@@ -67,10 +71,16 @@ mod tests {
         let s = ErrorStats::from_errors("e", &[2.0, 5.0, 1.0, 2.0]).unwrap();
         assert_eq!(s.count, 4);
         assert!((s.rmse - 8.5f64.sqrt()).abs() < 1e-15);
-        assert_eq!((s.mean, s.median, s.std, s.min, s.max, s.sse), (2.5, 2.0, 1.5, 1.0, 5.0, 34.0));
+        assert_eq!(
+            (s.mean, s.median, s.std, s.min, s.max, s.sse),
+            (2.5, 2.0, 1.5, 1.0, 5.0, 34.0)
+        );
         let odd = ErrorStats::from_errors("e", &[3.0, 1.0, 2.0]).unwrap();
         assert_eq!(odd.median, 2.0);
-        assert!(matches!(ErrorStats::from_errors("e", &[]), Err(EvalError::TooFew { .. })));
+        assert!(matches!(
+            ErrorStats::from_errors("e", &[]),
+            Err(EvalError::TooFew { .. })
+        ));
         assert!(matches!(
             ErrorStats::from_errors("e", &[1.0, f64::NAN]),
             Err(EvalError::NonFinite { index: 1, .. })

@@ -71,10 +71,17 @@ pub fn detect_format(path: &Path) -> Result<TrajectoryFormat, EvalError> {
         path: path.to_path_buf(),
         reason,
     };
-    let Some(line) = text.lines().map(str::trim).find(|l| !l.is_empty() && !l.starts_with('#')) else {
+    let Some(line) = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+    else {
         return Err(unknown("the file has no data line".into()));
     };
-    let tokens = line.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()).count();
+    let tokens = line
+        .split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|t| !t.is_empty())
+        .count();
     match tokens {
         8 => Ok(TrajectoryFormat::Tum),
         12 => Ok(TrajectoryFormat::Kitti),

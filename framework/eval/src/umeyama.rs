@@ -35,7 +35,11 @@ pub enum AlignmentKind {
 /// With `with_scale == false`, `s = 1` (SE(3)). Needs at least three point pairs that are not all
 /// collinear (the rotation about their common line would be undetermined); both are reported as errors,
 /// as are NaN/Inf coordinates and sets of different sizes.
-pub fn umeyama(source: &[Vector3<f64>], target: &[Vector3<f64>], with_scale: bool) -> Result<Similarity3<f64>, EvalError> {
+pub fn umeyama(
+    source: &[Vector3<f64>],
+    target: &[Vector3<f64>],
+    with_scale: bool,
+) -> Result<Similarity3<f64>, EvalError> {
     if source.len() != target.len() {
         return Err(EvalError::LengthMismatch {
             what: "Umeyama point sets",
@@ -50,7 +54,10 @@ pub fn umeyama(source: &[Vector3<f64>], target: &[Vector3<f64>], with_scale: boo
             got: source.len(),
         });
     }
-    for (what, points) in [("Umeyama source points", source), ("Umeyama target points", target)] {
+    for (what, points) in [
+        ("Umeyama source points", source),
+        ("Umeyama target points", target),
+    ] {
         if let Some(index) = points.iter().position(|p| !p.iter().all(|v| v.is_finite())) {
             return Err(EvalError::NonFinite { what, index });
         }
@@ -106,12 +113,20 @@ pub fn umeyama(source: &[Vector3<f64>], target: &[Vector3<f64>], with_scale: boo
         1.0
     };
     let translation = mean_target - scale * (rotation * mean_source);
-    Ok(Similarity3::from_parts(Translation3::from(translation), rotation, scale))
+    Ok(Similarity3::from_parts(
+        Translation3::from(translation),
+        rotation,
+        scale,
+    ))
 }
 
 /// The alignment `gt_from_est` of an estimated trajectory onto ground truth, from the positions of
 /// already associated pose pairs (`gt[i]` and `est[i]` at the same time).
-pub fn align_trajectory(gt: &[Pose], est: &[Pose], kind: AlignmentKind) -> Result<Similarity3<f64>, EvalError> {
+pub fn align_trajectory(
+    gt: &[Pose],
+    est: &[Pose],
+    kind: AlignmentKind,
+) -> Result<Similarity3<f64>, EvalError> {
     let gt_positions: Vec<Vector3<f64>> = gt.iter().map(|p| p.translation.vector).collect();
     let est_positions: Vec<Vector3<f64>> = est.iter().map(|p| p.translation.vector).collect();
     match kind {

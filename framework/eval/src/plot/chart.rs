@@ -18,7 +18,9 @@ const Y_LABEL_AREA_PX: u32 = 72;
 
 /// The data extent of all series, padded by 5 % (or ±1 when flat).
 fn fit_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
     if lo > hi {
         return None;
     }
@@ -54,15 +56,23 @@ pub fn draw_chart(path: &Path, chart: &Chart, options: &PlotOptions) -> Result<P
         return Err(fail(format!("size {w}x{h} px is outside 200x150 ..= 8192x8192")));
     }
     for (index, series) in chart.series.iter().enumerate() {
-        if let Some(k) = series.points.iter().position(|(x, y)| !(x.is_finite() && y.is_finite())) {
-            return Err(fail(format!("series {index} has a non-finite point at index {k}")));
+        if let Some(k) = series
+            .points
+            .iter()
+            .position(|(x, y)| !(x.is_finite() && y.is_finite()))
+        {
+            return Err(fail(format!(
+                "series {index} has a non-finite point at index {k}"
+            )));
         }
     }
     for (name, range) in [("x_range", chart.x_range), ("y_range", chart.y_range)] {
-        if let Some((lo, hi)) = range {
-            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-                return Err(fail(format!("{name} ({lo}, {hi}) is not an increasing finite interval")));
-            }
+        if let Some((lo, hi)) = range
+            && !(lo.is_finite() && hi.is_finite() && lo < hi)
+        {
+            return Err(fail(format!(
+                "{name} ({lo}, {hi}) is not an increasing finite interval"
+            )));
         }
     }
     let points = || chart.series.iter().flat_map(|s| s.points.iter());
@@ -74,7 +84,11 @@ pub fn draw_chart(path: &Path, chart: &Chart, options: &PlotOptions) -> Result<P
         return Err(fail("no point to plot and no axis ranges given".into()));
     };
     if chart.equal_aspect {
-        let (label_w, label_h, caption) = if text { (Y_LABEL_AREA_PX, X_LABEL_AREA_PX, CAPTION_PX) } else { (0, 0, 0) };
+        let (label_w, label_h, caption) = if text {
+            (Y_LABEL_AREA_PX, X_LABEL_AREA_PX, CAPTION_PX)
+        } else {
+            (0, 0, 0)
+        };
         let plot_w = f64::from(w.saturating_sub(2 * MARGIN_PX + label_w).max(1));
         let plot_h = f64::from(h.saturating_sub(2 * MARGIN_PX + label_h + caption).max(1));
         (x_range, y_range) = equalise(x_range, y_range, plot_w, plot_h);
@@ -98,7 +112,9 @@ pub fn draw_chart(path: &Path, chart: &Chart, options: &PlotOptions) -> Result<P
         let mut mesh = context.configure_mesh();
         mesh.light_line_style(RGBColor(235, 235, 235));
         if text {
-            mesh.x_desc(&chart.x_label).y_desc(&chart.y_label).label_style((FAMILY, 14));
+            mesh.x_desc(&chart.x_label)
+                .y_desc(&chart.y_label)
+                .label_style((FAMILY, 14));
         } else {
             mesh.x_labels(10).y_labels(10);
         }
@@ -189,10 +205,20 @@ pub fn line_plot(
 }
 
 /// PR curves (recall on x, precision on y, both in `[0, 1]`), one line per named curve.
-pub fn pr_curve_plot(path: &Path, title: &str, curves: &[(&str, &PrCurve)], options: &PlotOptions) -> Result<PlotOutput, EvalError> {
+pub fn pr_curve_plot(
+    path: &Path,
+    title: &str,
+    curves: &[(&str, &PrCurve)],
+    options: &PlotOptions,
+) -> Result<PlotOutput, EvalError> {
     let series = curves
         .iter()
-        .map(|(name, curve)| Series::line(*name, curve.points.iter().map(|p| (p.recall, p.precision)).collect()))
+        .map(|(name, curve)| {
+            Series::line(
+                *name,
+                curve.points.iter().map(|p| (p.recall, p.precision)).collect(),
+            )
+        })
         .collect();
     let chart = Chart {
         title: title.into(),
@@ -219,7 +245,10 @@ pub fn trajectory_plot(
         .iter()
         .enumerate()
         .map(|(index, (name, poses))| {
-            let mut s = Series::line(*name, poses.iter().map(|p| (p.translation.x, p.translation.y)).collect());
+            let mut s = Series::line(
+                *name,
+                poses.iter().map(|p| (p.translation.x, p.translation.y)).collect(),
+            );
             if ground_truth_first && index == 0 {
                 s.color = Some([90, 90, 90]);
             } else {
@@ -258,7 +287,9 @@ pub fn point_map(
     }
     let (z_lo, z_hi) = points
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[2]), hi.max(p[2])));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[2]), hi.max(p[2]))
+        });
     let z_span = (z_hi - z_lo).max(f64::MIN_POSITIVE);
     let mut bands: Vec<Vec<(f64, f64)>> = vec![Vec::new(); BANDS];
     for p in points {
@@ -279,7 +310,10 @@ pub fn point_map(
         })
         .collect();
     for (index, (name, poses)) in trajectories.iter().enumerate() {
-        let mut s = Series::line(*name, poses.iter().map(|p| (p.translation.x, p.translation.y)).collect());
+        let mut s = Series::line(
+            *name,
+            poses.iter().map(|p| (p.translation.x, p.translation.y)).collect(),
+        );
         s.color = Some(PALETTE[(index + 2) % PALETTE.len()]);
         series.push(s);
     }

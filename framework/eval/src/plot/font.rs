@@ -26,7 +26,9 @@ static FONT_READY: OnceLock<bool> = OnceLock::new();
 
 fn load() -> bool {
     let from_env = std::env::var_os(FONT_VAR).map(std::path::PathBuf::from);
-    let paths = from_env.into_iter().chain(CANDIDATES.iter().map(std::path::PathBuf::from));
+    let paths = from_env
+        .into_iter()
+        .chain(CANDIDATES.iter().map(std::path::PathBuf::from));
     for path in paths {
         let Ok(bytes) = std::fs::read(&path) else {
             continue;

@@ -117,8 +117,15 @@ impl PlotOutput {
     /// A Markdown image line with a caption naming the axes and the series colours, so the plot reads
     /// the same whether or not its text was drawn.
     pub fn markdown(&self) -> String {
-        let file = self.path.file_name().map_or_else(|| self.path.display().to_string(), |f| f.to_string_lossy().into_owned());
-        let legend: Vec<String> = self.legend.iter().map(|e| format!("{} = {}", e.name, e.color_hex)).collect();
+        let file = self.path.file_name().map_or_else(
+            || self.path.display().to_string(),
+            |f| f.to_string_lossy().into_owned(),
+        );
+        let legend: Vec<String> = self
+            .legend
+            .iter()
+            .map(|e| format!("{} = {}", e.name, e.color_hex))
+            .collect();
         format!(
             "![{}]({file})\n\n*{}* — x: {}, y: {}; {}\n",
             self.title,
