@@ -77,12 +77,18 @@ impl Bvh {
             .collect();
         let mut centroids: Vec<V3> = bounds.iter().map(|b| (b.min + b.max) * 0.5).collect();
         let mut order: Vec<u32> = (0..n as u32).collect();
-        let mut nodes = vec![Node { bounds: Aabb::EMPTY, first: 0, count: n as u32 }];
+        let mut nodes = vec![Node {
+            bounds: Aabb::EMPTY,
+            first: 0,
+            count: n as u32,
+        }];
         let mut stack = vec![0usize];
         while let Some(index) = stack.pop() {
             let (first, count) = (nodes[index].first as usize, nodes[index].count as usize);
             let range = first..first + count;
-            let node_bounds = order[range.clone()].iter().fold(Aabb::EMPTY, |acc, &i| acc.union(&bounds[i as usize]));
+            let node_bounds = order[range.clone()]
+                .iter()
+                .fold(Aabb::EMPTY, |acc, &i| acc.union(&bounds[i as usize]));
             nodes[index].bounds = node_bounds;
             if count <= MAX_LEAF {
                 continue;
@@ -91,9 +97,21 @@ impl Bvh {
                 continue;
             };
             let left = nodes.len();
-            nodes.push(Node { bounds: Aabb::EMPTY, first: first as u32, count: mid as u32 });
-            nodes.push(Node { bounds: Aabb::EMPTY, first: (first + mid) as u32, count: (count - mid) as u32 });
-            nodes[index] = Node { bounds: node_bounds, first: left as u32, count: 0 };
+            nodes.push(Node {
+                bounds: Aabb::EMPTY,
+                first: first as u32,
+                count: mid as u32,
+            });
+            nodes.push(Node {
+                bounds: Aabb::EMPTY,
+                first: (first + mid) as u32,
+                count: (count - mid) as u32,
+            });
+            nodes[index] = Node {
+                bounds: node_bounds,
+                first: left as u32,
+                count: 0,
+            };
             stack.push(left);
             stack.push(left + 1);
         }
@@ -101,7 +119,10 @@ impl Bvh {
         let materials = order.iter().map(|&i| mesh.materials[i as usize]).collect();
         bounds.clear();
         centroids.clear();
-        Self { nodes, mesh: Mesh { tris, materials } }
+        Self {
+            nodes,
+            mesh: Mesh { tris, materials },
+        }
     }
 
     /// The triangles, in BVH order (triangle indices of hits refer to this order).
@@ -129,10 +150,16 @@ impl Bvh {
         loop {
             if node.count > 0 {
                 let first = node.first as usize;
-                for (offset, tri) in self.mesh.tris[first..first + node.count as usize].iter().enumerate() {
+                for (offset, tri) in self.mesh.tris[first..first + node.count as usize]
+                    .iter()
+                    .enumerate()
+                {
                     if let Some(t) = tri.intersect(ray, t_best) {
                         t_best = t;
-                        best = Some(MeshHit { t, triangle: (first + offset) as u32 });
+                        best = Some(MeshHit {
+                            t,
+                            triangle: (first + offset) as u32,
+                        });
                     }
                 }
             } else {
@@ -207,7 +234,9 @@ impl Bvh {
 /// when no split beats a leaf.
 fn split(order: &mut [u32], bounds: &[Aabb], centroids: &[V3], parent_half_area: f32) -> Option<usize> {
     let mut centroid_bounds = Aabb::EMPTY;
-    order.iter().for_each(|&i| centroid_bounds.grow(centroids[i as usize]));
+    order
+        .iter()
+        .for_each(|&i| centroid_bounds.grow(centroids[i as usize]));
     let extent = centroid_bounds.max - centroid_bounds.min;
     let mut best: Option<(f32, usize, f32)> = None;
     for axis in 0..3 {
@@ -270,7 +299,11 @@ mod tests {
         let mut rng = Rng::new(4);
         let mut mesh = Mesh::default();
         for _ in 0..n {
-            let c = V3::from_f64(rng.range(-50.0, 50.0), rng.range(-50.0, 50.0), rng.range(-5.0, 5.0));
+            let c = V3::from_f64(
+                rng.range(-50.0, 50.0),
+                rng.range(-50.0, 50.0),
+                rng.range(-5.0, 5.0),
+            );
             let a = c + V3::from_f64(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
             let b = c + V3::from_f64(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
             mesh.push(c, a, b, 0);
@@ -284,10 +317,18 @@ mod tests {
         let bvh = Bvh::build(mesh.clone());
         let mut rng = Rng::new(9);
         for _ in 0..500 {
-            let origin = V3::from_f64(rng.range(-60.0, 60.0), rng.range(-60.0, 60.0), rng.range(-8.0, 8.0));
+            let origin = V3::from_f64(
+                rng.range(-60.0, 60.0),
+                rng.range(-60.0, 60.0),
+                rng.range(-8.0, 8.0),
+            );
             let dir = V3::from_f64(rng.gaussian(), rng.gaussian(), rng.gaussian()).normalized();
             let ray = Ray::new(origin, dir);
-            let brute = mesh.tris.iter().filter_map(|t| t.intersect(&ray, 200.0)).fold(f32::INFINITY, f32::min);
+            let brute = mesh
+                .tris
+                .iter()
+                .filter_map(|t| t.intersect(&ray, 200.0))
+                .fold(f32::INFINITY, f32::min);
             let fast = bvh.cast(&ray, 200.0).map_or(f32::INFINITY, |h| h.t);
             assert_eq!(brute, fast);
             let (d, _) = bvh.nearest(origin, 1e4).unwrap_or((f32::NAN, 0));

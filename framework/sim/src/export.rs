@@ -35,7 +35,12 @@ fn pose_line(pose: &Pose) -> String {
     let mut line = String::new();
     for row in 0..3 {
         for col in 0..4 {
-            let _ = write!(line, "{}{:.9e}", if row + col == 0 { "" } else { " " }, m[(row, col)]);
+            let _ = write!(
+                line,
+                "{}{:.9e}",
+                if row + col == 0 { "" } else { " " },
+                m[(row, col)]
+            );
         }
     }
     line
@@ -69,7 +74,11 @@ pub fn export_kitti(dir: impl AsRef<Path>, source: &mut SimSource) -> Result<Exp
         for sample in &scan.imu {
             let [ax, ay, az] = sample.accel_mps2;
             let [gx, gy, gz] = sample.gyro_radps;
-            let _ = writeln!(imu, "{:.9} {ax:.9e} {ay:.9e} {az:.9e} {gx:.9e} {gy:.9e} {gz:.9e}", sample.stamp_nanos as f64 * 1e-9);
+            let _ = writeln!(
+                imu,
+                "{:.9} {ax:.9e} {ay:.9e} {az:.9e} {gx:.9e} {gy:.9e} {gz:.9e}",
+                sample.stamp_nanos as f64 * 1e-9
+            );
         }
         scans += 1;
         points += scan.points.len();
@@ -82,12 +91,20 @@ pub fn export_kitti(dir: impl AsRef<Path>, source: &mut SimSource) -> Result<Exp
     write_file(&dir.join("calib.txt"), calib.as_bytes())?;
     let world_from_first = format!("{}\n", pose_line(&first.unwrap_or_else(Pose::identity)));
     write_file(&dir.join("world_from_first.txt"), world_from_first.as_bytes())?;
-    Ok(ExportSummary { dir: dir.to_owned(), scans, points })
+    Ok(ExportSummary {
+        dir: dir.to_owned(),
+        scans,
+        points,
+    })
 }
 
 /// Exports every robot of the fleet in `config` into `dir/robotN/`, and writes `dir/README.txt`
 /// describing the run.
-pub fn export_fleet_kitti(dir: impl AsRef<Path>, config: &SimConfig, threads: usize) -> Result<Vec<ExportSummary>, SimError> {
+pub fn export_fleet_kitti(
+    dir: impl AsRef<Path>,
+    config: &SimConfig,
+    threads: usize,
+) -> Result<Vec<ExportSummary>, SimError> {
     let dir = dir.as_ref();
     config.validate()?;
     fs::create_dir_all(dir).map_err(|e| SimError::io(dir, e))?;
@@ -96,9 +113,17 @@ pub fn export_fleet_kitti(dir: impl AsRef<Path>, config: &SimConfig, threads: us
         let mut source = SimSource::new(config, robot, threads)?;
         summaries.push(export_kitti(dir.join(format!("robot{robot}")), &mut source)?);
     }
-    let mut readme = String::from("SKiD simulator export (KITTI odometry layout per robot; see world_from_first.txt for the shared frame)\n");
-    let _ = writeln!(readme, "world = {}\nseed = {}\nsensor = {}\nrobots = {}", config.world, config.seed, config.sensor, config.robots);
+    let mut readme = String::from(
+        "SKiD simulator export (KITTI odometry layout per robot; see world_from_first.txt for the shared frame)\n",
+    );
+    let _ = writeln!(
+        readme,
+        "world = {}\nseed = {}\nsensor = {}\nrobots = {}",
+        config.world, config.seed, config.sensor, config.robots
+    );
     let path = dir.join("README.txt");
-    fs::File::create(&path).and_then(|mut f| f.write_all(readme.as_bytes())).map_err(|e| SimError::io(&path, e))?;
+    fs::File::create(&path)
+        .and_then(|mut f| f.write_all(readme.as_bytes()))
+        .map_err(|e| SimError::io(&path, e))?;
     Ok(summaries)
 }

@@ -30,7 +30,11 @@ impl V3 {
     }
 
     pub fn cross(self, o: Self) -> Self {
-        Self::new(self.y * o.z - self.z * o.y, self.z * o.x - self.x * o.z, self.x * o.y - self.y * o.x)
+        Self::new(
+            self.y * o.z - self.z * o.y,
+            self.z * o.x - self.x * o.z,
+            self.x * o.y - self.y * o.x,
+        )
     }
 
     pub fn norm(self) -> f32 {
@@ -94,8 +98,18 @@ pub struct Ray {
 impl Ray {
     /// A ray from `origin` along the unit vector `dir`.
     pub fn new(origin: V3, dir: V3) -> Self {
-        let inv = |d: f32| if d.abs() > 1e-12 { 1.0 / d } else { 1e12_f32.copysign(d) };
-        Self { origin, dir, inv_dir: V3::new(inv(dir.x), inv(dir.y), inv(dir.z)) }
+        let inv = |d: f32| {
+            if d.abs() > 1e-12 {
+                1.0 / d
+            } else {
+                1e12_f32.copysign(d)
+            }
+        };
+        Self {
+            origin,
+            dir,
+            inv_dir: V3::new(inv(dir.x), inv(dir.y), inv(dir.z)),
+        }
     }
 
     pub fn at(&self, t: f32) -> V3 {
@@ -137,13 +151,20 @@ impl Aabb {
     }
 
     pub fn union(&self, o: &Self) -> Self {
-        Self { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Self {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     /// Half the surface area (the SAH only needs ratios); 0 for an empty box.
     pub fn half_area(&self) -> f32 {
         let d = self.max - self.min;
-        if d.x < 0.0 { 0.0 } else { d.x * d.y + d.y * d.z + d.z * d.x }
+        if d.x < 0.0 {
+            0.0
+        } else {
+            d.x * d.y + d.y * d.z + d.z * d.x
+        }
     }
 
     /// Squared distance from `p` to the box (0 inside).
@@ -163,7 +184,11 @@ pub struct Tri {
 
 impl Tri {
     pub fn new(a: V3, b: V3, c: V3) -> Self {
-        Self { v0: a, e1: b - a, e2: c - a }
+        Self {
+            v0: a,
+            e1: b - a,
+            e2: c - a,
+        }
     }
 
     pub fn vertices(&self) -> [V3; 3] {
@@ -239,7 +264,11 @@ mod tests {
 
     #[test]
     fn ray_hits_triangle_from_both_sides() {
-        let tri = Tri::new(V3::new(0.0, -1.0, -1.0), V3::new(0.0, 1.0, -1.0), V3::new(0.0, 0.0, 1.0));
+        let tri = Tri::new(
+            V3::new(0.0, -1.0, -1.0),
+            V3::new(0.0, 1.0, -1.0),
+            V3::new(0.0, 0.0, 1.0),
+        );
         let front = Ray::new(V3::new(-2.0, 0.0, 0.0), V3::new(1.0, 0.0, 0.0));
         let back = Ray::new(V3::new(2.0, 0.0, 0.0), V3::new(-1.0, 0.0, 0.0));
         assert!((tri.intersect(&front, 10.0).unwrap_or(0.0) - 2.0).abs() < 1e-6);
@@ -251,10 +280,17 @@ mod tests {
 
     #[test]
     fn closest_point_regions() {
-        let tri = Tri::new(V3::new(0.0, 0.0, 0.0), V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0));
+        let tri = Tri::new(
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(0.0, 1.0, 0.0),
+        );
         let inner = tri.closest_point(V3::new(0.2, 0.2, 5.0));
         assert!((inner - V3::new(0.2, 0.2, 0.0)).norm() < 1e-6);
-        assert_eq!(tri.closest_point(V3::new(-1.0, -1.0, 0.0)), V3::new(0.0, 0.0, 0.0));
+        assert_eq!(
+            tri.closest_point(V3::new(-1.0, -1.0, 0.0)),
+            V3::new(0.0, 0.0, 0.0)
+        );
         let edge = tri.closest_point(V3::new(1.0, 1.0, 0.0));
         assert!((edge.x - 0.5).abs() < 1e-6 && (edge.y - 0.5).abs() < 1e-6);
     }

@@ -23,27 +23,56 @@ pub struct HeightField {
 impl HeightField {
     /// Evaluates `height(x, y)` at every vertex of a `cells` × `cells` grid with lower corner `origin`,
     /// in parallel; the result is the `heights` argument of [`HeightField::new`].
-    pub fn sample_vertices(origin_x_m: f64, origin_y_m: f64, cell_m: f64, cells: usize, height: impl Fn(f64, f64) -> f64 + Sync) -> Vec<f32> {
+    pub fn sample_vertices(
+        origin_x_m: f64,
+        origin_y_m: f64,
+        cell_m: f64,
+        cells: usize,
+        height: impl Fn(f64, f64) -> f64 + Sync,
+    ) -> Vec<f32> {
         use rayon::prelude::*;
         let side = cells + 1;
         (0..side * side)
             .into_par_iter()
-            .map(|i| height(origin_x_m + (i % side) as f64 * cell_m, origin_y_m + (i / side) as f64 * cell_m) as f32)
+            .map(|i| {
+                height(
+                    origin_x_m + (i % side) as f64 * cell_m,
+                    origin_y_m + (i / side) as f64 * cell_m,
+                ) as f32
+            })
             .collect()
     }
 
     /// A height field whose lower corner is at `origin`, from `(cells + 1)²` row-major vertex heights and
     /// `cells²` cell materials. `cells` must be a power of two.
-    pub fn new(origin_x_m: f64, origin_y_m: f64, cell_m: f64, cells: usize, heights: Vec<f32>, materials: Vec<u8>) -> Self {
-        assert!(cells.is_power_of_two(), "height field size must be a power of two");
+    pub fn new(
+        origin_x_m: f64,
+        origin_y_m: f64,
+        cell_m: f64,
+        cells: usize,
+        heights: Vec<f32>,
+        materials: Vec<u8>,
+    ) -> Self {
+        assert!(
+            cells.is_power_of_two(),
+            "height field size must be a power of two"
+        );
         assert_eq!(heights.len(), (cells + 1) * (cells + 1), "one height per vertex");
         assert_eq!(materials.len(), cells * cells, "one material per cell");
         let side = cells + 1;
         let mut base = vec![[0.0f32; 2]; cells * cells];
         for j in 0..cells {
             for i in 0..cells {
-                let h = [heights[j * side + i], heights[j * side + i + 1], heights[(j + 1) * side + i], heights[(j + 1) * side + i + 1]];
-                base[j * cells + i] = [h.iter().copied().fold(f32::INFINITY, f32::min), h.iter().copied().fold(f32::NEG_INFINITY, f32::max)];
+                let h = [
+                    heights[j * side + i],
+                    heights[j * side + i + 1],
+                    heights[(j + 1) * side + i],
+                    heights[(j + 1) * side + i + 1],
+                ];
+                base[j * cells + i] = [
+                    h.iter().copied().fold(f32::INFINITY, f32::min),
+                    h.iter().copied().fold(f32::NEG_INFINITY, f32::max),
+                ];
             }
         }
         let mut levels = vec![base];
@@ -54,14 +83,30 @@ impl HeightField {
             let mut next = vec![[0.0f32; 2]; half * half];
             for j in 0..half {
                 for i in 0..half {
-                    let quads = [below[2 * j * size + 2 * i], below[2 * j * size + 2 * i + 1], below[(2 * j + 1) * size + 2 * i], below[(2 * j + 1) * size + 2 * i + 1]];
-                    next[j * half + i] = [quads.iter().map(|q| q[0]).fold(f32::INFINITY, f32::min), quads.iter().map(|q| q[1]).fold(f32::NEG_INFINITY, f32::max)];
+                    let quads = [
+                        below[2 * j * size + 2 * i],
+                        below[2 * j * size + 2 * i + 1],
+                        below[(2 * j + 1) * size + 2 * i],
+                        below[(2 * j + 1) * size + 2 * i + 1],
+                    ];
+                    next[j * half + i] = [
+                        quads.iter().map(|q| q[0]).fold(f32::INFINITY, f32::min),
+                        quads.iter().map(|q| q[1]).fold(f32::NEG_INFINITY, f32::max),
+                    ];
                 }
             }
             levels.push(next);
             size = half;
         }
-        Self { origin_x_m: origin_x_m as f32, origin_y_m: origin_y_m as f32, cell_m: cell_m as f32, cells, heights, materials, levels }
+        Self {
+            origin_x_m: origin_x_m as f32,
+            origin_y_m: origin_y_m as f32,
+            cell_m: cell_m as f32,
+            cells,
+            heights,
+            materials,
+            levels,
+        }
     }
 
     /// Side length in metres.
@@ -76,7 +121,12 @@ impl HeightField {
 
     /// Lowest and highest terrain height.
     pub fn z_range_m(&self) -> (f32, f32) {
-        let top = self.levels.last().and_then(|l| l.first()).copied().unwrap_or([0.0, 0.0]);
+        let top = self
+            .levels
+            .last()
+            .and_then(|l| l.first())
+            .copied()
+            .unwrap_or([0.0, 0.0]);
         (top[0], top[1])
     }
 
@@ -90,7 +140,12 @@ impl HeightField {
 
     /// The two triangles of cell (i, j).
     pub fn cell_triangles(&self, i: usize, j: usize) -> [Tri; 2] {
-        let (p00, p10, p01, p11) = (self.vertex(i, j), self.vertex(i + 1, j), self.vertex(i, j + 1), self.vertex(i + 1, j + 1));
+        let (p00, p10, p01, p11) = (
+            self.vertex(i, j),
+            self.vertex(i + 1, j),
+            self.vertex(i, j + 1),
+            self.vertex(i + 1, j + 1),
+        );
         [Tri::new(p00, p10, p11), Tri::new(p00, p11, p01)]
     }
 
@@ -102,7 +157,10 @@ impl HeightField {
 
     fn cell_of(&self, x: f32, y: f32) -> (usize, usize) {
         let clamp = |v: f32| (v.max(0.0) as usize).min(self.cells - 1);
-        (clamp((x - self.origin_x_m) / self.cell_m), clamp((y - self.origin_y_m) / self.cell_m))
+        (
+            clamp((x - self.origin_x_m) / self.cell_m),
+            clamp((y - self.origin_y_m) / self.cell_m),
+        )
     }
 
     /// The surface height at (x, y), clamped to the field.
@@ -113,7 +171,11 @@ impl HeightField {
         let side = self.cells + 1;
         let h = |a: usize, b: usize| f64::from(self.heights[b * side + a]);
         let (h00, h10, h01, h11) = (h(i, j), h(i + 1, j), h(i, j + 1), h(i + 1, j + 1));
-        if fx >= fy { h00 + (h10 - h00) * fx + (h11 - h10) * fy } else { h00 + (h11 - h01) * fx + (h01 - h00) * fy }
+        if fx >= fy {
+            h00 + (h10 - h00) * fx + (h11 - h10) * fy
+        } else {
+            h00 + (h11 - h01) * fx + (h01 - h00) * fy
+        }
     }
 
     /// Closest hit along `ray` before `t_max`: distance and the triangle hit.
@@ -145,8 +207,18 @@ impl HeightField {
             let p = ray.at(t + NUDGE);
             let i = (((p.x - x0) * inv_size).max(0.0) as usize).min(per_row - 1);
             let j = (((p.y - y0) * inv_size).max(0.0) as usize).min(per_row - 1);
-            let next_x = x0 + if ray.dir.x >= 0.0 { (i + 1) as f32 } else { i as f32 } * size;
-            let next_y = y0 + if ray.dir.y >= 0.0 { (j + 1) as f32 } else { j as f32 } * size;
+            let next_x = x0
+                + if ray.dir.x >= 0.0 {
+                    (i + 1) as f32
+                } else {
+                    i as f32
+                } * size;
+            let next_y = y0
+                + if ray.dir.y >= 0.0 {
+                    (j + 1) as f32
+                } else {
+                    j as f32
+                } * size;
             let tx = (next_x - ray.origin.x) * ray.inv_dir.x;
             let ty = (next_y - ray.origin.y) * ray.inv_dir.y;
             let t_exit = tx.min(ty).min(t_end).max(t + NUDGE);
@@ -155,7 +227,11 @@ impl HeightField {
             if z_in.min(z_out) > z_max {
                 // Leave the node; climb when the step also leaves the parent node.
                 let crossing_x = tx <= ty;
-                let (index, forward) = if crossing_x { (i, ray.dir.x >= 0.0) } else { (j, ray.dir.y >= 0.0) };
+                let (index, forward) = if crossing_x {
+                    (i, ray.dir.x >= 0.0)
+                } else {
+                    (j, ray.dir.y >= 0.0)
+                };
                 let next = if forward { index + 1 } else { index.wrapping_sub(1) };
                 if level < top && next >> 1 != index >> 1 {
                     level += 1;
@@ -190,7 +266,12 @@ impl HeightField {
         // Children are pushed far-first so the one nearest along the ray is popped first.
         let near_x = u16::from(ray.dir.x < 0.0);
         let near_y = u16::from(ray.dir.y < 0.0);
-        let order = [(1 - near_x, 1 - near_y), (near_x, 1 - near_y), (1 - near_x, near_y), (near_x, near_y)];
+        let order = [
+            (1 - near_x, 1 - near_y),
+            (near_x, 1 - near_y),
+            (1 - near_x, near_y),
+            (near_x, near_y),
+        ];
         while depth > 0 {
             depth -= 1;
             let (level, i, j) = stack[depth];
@@ -198,7 +279,11 @@ impl HeightField {
             let size = self.cell_m * (1u32 << level) as f32;
             let per_row = self.cells >> level;
             let [z_min, z_max] = self.levels[level][j as usize * per_row + i as usize];
-            let min = V3::new(self.origin_x_m + f32::from(i) * size, self.origin_y_m + f32::from(j) * size, z_min);
+            let min = V3::new(
+                self.origin_x_m + f32::from(i) * size,
+                self.origin_y_m + f32::from(j) * size,
+                z_min,
+            );
             let max = V3::new(min.x + size, min.y + size, z_max);
             if ray.slab(min, max, t_best).is_none() {
                 continue;
@@ -242,11 +327,17 @@ mod tests {
 
     #[test]
     fn cast_matches_brute_force_and_height() {
-        let heights = HeightField::sample_vertices(-32.0, -32.0, 1.0, 64, |x, y| (x * 0.3).sin() * 2.0 + (y * 0.17).cos() * 3.0);
+        let heights = HeightField::sample_vertices(-32.0, -32.0, 1.0, 64, |x, y| {
+            (x * 0.3).sin() * 2.0 + (y * 0.17).cos() * 3.0
+        });
         let field = HeightField::new(-32.0, -32.0, 1.0, 64, heights, vec![1; 64 * 64]);
         let mut rng = Rng::new(2);
         for _ in 0..300 {
-            let origin = V3::from_f64(rng.range(-40.0, 40.0), rng.range(-40.0, 40.0), rng.range(3.0, 10.0));
+            let origin = V3::from_f64(
+                rng.range(-40.0, 40.0),
+                rng.range(-40.0, 40.0),
+                rng.range(3.0, 10.0),
+            );
             let dir = V3::from_f64(rng.gaussian(), rng.gaussian(), rng.gaussian() - 0.5).normalized();
             let ray = Ray::new(origin, dir);
             let mut brute = f32::INFINITY;

@@ -52,12 +52,24 @@ impl ImuSimulator {
     /// A simulator whose first sample is at t = 0; `noise = None` gives perfect measurements.
     pub fn new(noise: Option<ImuNoise>, seed: u64) -> Self {
         let mut rng = Rng::new(seed);
-        let noise_or_zero = noise.unwrap_or(ImuNoise { accel_noise_density: 0.0, accel_bias_random_walk: 0.0, gyro_noise_density: 0.0, gyro_bias_random_walk: 0.0, ..ImuNoise::default() });
+        let noise_or_zero = noise.unwrap_or(ImuNoise {
+            accel_noise_density: 0.0,
+            accel_bias_random_walk: 0.0,
+            gyro_noise_density: 0.0,
+            gyro_bias_random_walk: 0.0,
+            ..ImuNoise::default()
+        });
         // Turn-on biases of a few mg and a few tenths of a degree per second, when noise is on.
         let on = if noise.is_some() { 1.0 } else { 0.0 };
         let accel_bias = Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * 0.03 * on;
         let gyro_bias = Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * 0.002 * on;
-        Self { noise: noise_or_zero, rng, accel_bias, gyro_bias, next_index: 0 }
+        Self {
+            noise: noise_or_zero,
+            rng,
+            accel_bias,
+            gyro_bias,
+            next_index: 0,
+        }
     }
 
     fn period_nanos(&self) -> u64 {
@@ -76,12 +88,19 @@ impl ImuSimulator {
             let (_, acceleration) = trajectory.velocity_acceleration_at(t);
             let specific_force = rotation.inverse() * (acceleration + Vector3::new(0.0, 0.0, GRAVITY_MPS2));
             let rate = trajectory.angular_velocity_at(t);
-            let white = |rng: &mut Rng, density: f64| Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * density / dt.sqrt();
-            let accel = specific_force + self.accel_bias + white(&mut self.rng, self.noise.accel_noise_density);
+            let white = |rng: &mut Rng, density: f64| {
+                Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * density / dt.sqrt()
+            };
+            let accel =
+                specific_force + self.accel_bias + white(&mut self.rng, self.noise.accel_noise_density);
             let gyro = rate + self.gyro_bias + white(&mut self.rng, self.noise.gyro_noise_density);
             self.accel_bias += white(&mut self.rng, self.noise.accel_bias_random_walk) * dt;
             self.gyro_bias += white(&mut self.rng, self.noise.gyro_bias_random_walk) * dt;
-            samples.push(ImuSample { stamp_nanos, accel_mps2: [accel.x, accel.y, accel.z], gyro_radps: [gyro.x, gyro.y, gyro.z] });
+            samples.push(ImuSample {
+                stamp_nanos,
+                accel_mps2: [accel.x, accel.y, accel.z],
+                gyro_radps: [gyro.x, gyro.y, gyro.z],
+            });
             self.next_index += 1;
         }
         samples

@@ -42,7 +42,12 @@ pub struct MotionSpec {
 
 impl Default for MotionSpec {
     fn default() -> Self {
-        Self { speed_mps: 1.0, profile: Profile::Ground, mount_height_m: 0.8, still_s: 1.0 }
+        Self {
+            speed_mps: 1.0,
+            profile: Profile::Ground,
+            mount_height_m: 0.8,
+            still_s: 1.0,
+        }
     }
 }
 
@@ -50,7 +55,8 @@ fn resample(line: &[[f64; 3]], spacing_m: f64) -> Vec<[f64; 3]> {
     let mut out = vec![line[0]];
     let mut carry = 0.0;
     for w in line.windows(2) {
-        let length = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt();
+        let length =
+            ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt();
         let mut s = spacing_m - carry;
         while s <= length {
             let t = s / length;
@@ -78,7 +84,10 @@ fn moving_average(points: &[[f64; 3]], half_window: usize) -> Vec<[f64; 3]> {
 fn smooth_scalar(values: &[f64], half_window: usize) -> Vec<f64> {
     (0..values.len())
         .map(|i| {
-            let (lo, hi) = (i.saturating_sub(half_window), (i + half_window).min(values.len() - 1));
+            let (lo, hi) = (
+                i.saturating_sub(half_window),
+                (i + half_window).min(values.len() - 1),
+            );
             values[lo..=hi].iter().sum::<f64>() / (hi - lo + 1) as f64
         })
         .collect()
@@ -104,12 +113,20 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
     for i in 1..n {
         heading[i] = heading[i - 1] + wrap_pi(heading[i] - heading[i - 1]);
     }
-    let curvature = smooth_scalar(&(0..n).map(|i| (heading[(i + 1).min(n - 1)] - heading[i]).abs() / ds).collect::<Vec<_>>(), 8);
+    let curvature = smooth_scalar(
+        &(0..n)
+            .map(|i| (heading[(i + 1).min(n - 1)] - heading[i]).abs() / ds)
+            .collect::<Vec<_>>(),
+        8,
+    );
     let (lateral_mps2, longitudinal_mps2) = match spec.profile {
         Profile::Ground => (0.4, 0.3),
         Profile::Aerial => (1.5, 0.8),
     };
-    let mut speed: Vec<f64> = curvature.iter().map(|k| spec.speed_mps.min((lateral_mps2 / k.max(1e-9)).sqrt())).collect();
+    let mut speed: Vec<f64> = curvature
+        .iter()
+        .map(|k| spec.speed_mps.min((lateral_mps2 / k.max(1e-9)).sqrt()))
+        .collect();
     speed[0] = 0.0;
     speed[n - 1] = 0.0;
     for i in 1..n {
@@ -134,19 +151,32 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
             cursor += 1;
         }
         let (i, j) = (cursor, (cursor + 1).min(n - 1));
-        let f = if times[j] > times[i] { ((t - times[i]) / (times[j] - times[i])).clamp(0.0, 1.0) } else { 0.0 };
+        let f = if times[j] > times[i] {
+            ((t - times[i]) / (times[j] - times[i])).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let p: [f64; 3] = std::array::from_fn(|c| path[i][c] + (path[j][c] - path[i][c]) * f);
         let yaw = heading[i] + (heading[j] - heading[i]) * f;
         let v = speed[i] + (speed[j] - speed[i]) * f;
         samples.push((p, yaw, v));
     }
     let ground = |x: f64, y: f64, z_reference: f64| {
-        world.ground_below(x, y, z_reference + 0.5, 30.0).or_else(|| world.terrain_height(x, y)).unwrap_or(z_reference - 1.6)
+        world
+            .ground_below(x, y, z_reference + 0.5, 30.0)
+            .or_else(|| world.terrain_height(x, y))
+            .unwrap_or(z_reference - 1.6)
     };
-    let (mut z, mut roll, mut pitch) = (Vec::with_capacity(count), Vec::with_capacity(count), Vec::with_capacity(count));
+    let (mut z, mut roll, mut pitch) = (
+        Vec::with_capacity(count),
+        Vec::with_capacity(count),
+        Vec::with_capacity(count),
+    );
     for &(p, yaw, _) in &samples {
         let (c, s) = (yaw.cos(), yaw.sin());
-        let at = |forward: f64, left: f64| ground(p[0] + c * forward - s * left, p[1] + s * forward + c * left, p[2]);
+        let at = |forward: f64, left: f64| {
+            ground(p[0] + c * forward - s * left, p[1] + s * forward + c * left, p[2])
+        };
         let (front, back, left, right) = (at(0.5, 0.0), at(-0.5, 0.0), at(0.0, 0.4), at(0.0, -0.4));
         z.push(ground(p[0], p[1], p[2]).max((front + back + left + right) / 4.0));
         pitch.push((back - front).atan2(1.0));
@@ -154,11 +184,18 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
     }
     let (z, roll, pitch) = match spec.profile {
         Profile::Ground => {
-            let z: Vec<f64> = smooth_scalar(&z, 2).iter().map(|g| g + spec.mount_height_m).collect();
+            let z: Vec<f64> = smooth_scalar(&z, 2)
+                .iter()
+                .map(|g| g + spec.mount_height_m)
+                .collect();
             (z, smooth_scalar(&roll, 2), smooth_scalar(&pitch, 2))
         }
         Profile::Aerial => {
-            let altitude = if world.kind() == WorldKind::Cave { 2.2 } else { 10.0 };
+            let altitude = if world.kind() == WorldKind::Cave {
+                2.2
+            } else {
+                10.0
+            };
             let z: Vec<f64> = smooth_scalar(&z, 15).iter().map(|g| g + altitude).collect();
             let bank: Vec<f64> = (0..count)
                 .map(|k| {

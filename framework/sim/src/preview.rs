@@ -17,13 +17,32 @@ use crate::world::World;
 
 /// Distinct colours for up to 16 robots.
 const PALETTE: [[u8; 3]; 16] = [
-    [230, 25, 75], [60, 180, 75], [0, 130, 200], [245, 130, 48], [145, 30, 180], [70, 240, 240], [240, 50, 230], [210, 245, 60],
-    [250, 190, 212], [0, 128, 128], [220, 190, 255], [170, 110, 40], [255, 250, 200], [128, 0, 0], [170, 255, 195], [255, 215, 180],
+    [230, 25, 75],
+    [60, 180, 75],
+    [0, 130, 200],
+    [245, 130, 48],
+    [145, 30, 180],
+    [70, 240, 240],
+    [240, 50, 230],
+    [210, 245, 60],
+    [250, 190, 212],
+    [0, 128, 128],
+    [220, 190, 255],
+    [170, 110, 40],
+    [255, 250, 200],
+    [128, 0, 0],
+    [170, 255, 195],
+    [255, 215, 180],
 ];
 
 /// Renders `world` from above into a `size_px` × `size_px` PNG at `path`, with `paths` (x/y points in
 /// metres, one list per robot) drawn on top.
-pub fn preview_png(path: impl AsRef<Path>, world: &World, paths: &[Vec<[f64; 2]>], size_px: u32) -> Result<(), SimError> {
+pub fn preview_png(
+    path: impl AsRef<Path>,
+    world: &World,
+    paths: &[Vec<[f64; 2]>],
+    size_px: u32,
+) -> Result<(), SimError> {
     let path = path.as_ref();
     let size = size_px.clamp(16, 8192) as usize;
     let [x0, y0, x1, y1] = world.extent_m();
@@ -37,10 +56,17 @@ pub fn preview_png(path: impl AsRef<Path>, world: &World, paths: &[Vec<[f64; 2]>
             let x = x0 + (px as f64 + 0.5) * metres_per_px;
             let y = y0 + span - (py as f64 + 0.5) * metres_per_px;
             let ray = Ray::new(V3::from_f64(x, y, top), V3::new(0.0, 0.0, -1.0));
-            world.cast(&ray, 1000.0).map(|hit| (top as f32 - hit.range_m, hit.normal))
+            world
+                .cast(&ray, 1000.0)
+                .map(|hit| (top as f32 - hit.range_m, hit.normal))
         })
         .collect();
-    let (z_low, z_high) = samples.iter().flatten().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (z, _)| (lo.min(*z), hi.max(*z)));
+    let (z_low, z_high) = samples
+        .iter()
+        .flatten()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (z, _)| {
+            (lo.min(*z), hi.max(*z))
+        });
     let light = V3::new(-0.5, 0.5, 0.7).normalized();
     let mut rgb: Vec<u8> = samples
         .iter()
@@ -71,10 +97,17 @@ pub fn preview_png(path: impl AsRef<Path>, world: &World, paths: &[Vec<[f64; 2]>
     for (robot, points) in paths.iter().enumerate() {
         let color = PALETTE[robot % PALETTE.len()];
         for w in points.windows(2) {
-            let steps = ((w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]) / (metres_per_px * 0.5)).ceil().max(1.0) as usize;
+            let steps = ((w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]) / (metres_per_px * 0.5))
+                .ceil()
+                .max(1.0) as usize;
             for s in 0..=steps {
                 let t = s as f64 / steps as f64;
-                plot(w[0][0] + (w[1][0] - w[0][0]) * t, w[0][1] + (w[1][1] - w[0][1]) * t, 1, color);
+                plot(
+                    w[0][0] + (w[1][0] - w[0][0]) * t,
+                    w[0][1] + (w[1][1] - w[0][1]) * t,
+                    1,
+                    color,
+                );
             }
         }
         if let Some(start) = points.first() {
@@ -85,7 +118,10 @@ pub fn preview_png(path: impl AsRef<Path>, world: &World, paths: &[Vec<[f64; 2]>
     let mut encoder = png::Encoder::new(BufWriter::new(file), size as u32, size as u32);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
-    let png_error = |e: png::EncodingError| SimError::Png { path: path.to_owned(), message: e.to_string() };
+    let png_error = |e: png::EncodingError| SimError::Png {
+        path: path.to_owned(),
+        message: e.to_string(),
+    };
     let mut writer = encoder.write_header().map_err(png_error)?;
     writer.write_image_data(&rgb).map_err(png_error)?;
     writer.finish().map_err(png_error)
@@ -102,7 +138,10 @@ pub fn preview_fleet_png(path: impl AsRef<Path>, config: &SimConfig, size_px: u3
             let steps = ((trajectory.end_s() - trajectory.start_s()) / 0.5).ceil() as usize;
             (0..=steps)
                 .map(|k| {
-                    let p = trajectory.pose_at(trajectory.start_s() + k as f64 * 0.5).translation.vector;
+                    let p = trajectory
+                        .pose_at(trajectory.start_s() + k as f64 * 0.5)
+                        .translation
+                        .vector;
                     [p.x, p.y]
                 })
                 .collect()

@@ -26,7 +26,9 @@ pub struct Rng {
 impl Rng {
     /// A stream seeded by `seed` (any value, including 0, is fine).
     pub const fn new(seed: u64) -> Self {
-        Self { state: mix(seed ^ 0x5851_f42d_4c95_7f2d) }
+        Self {
+            state: mix(seed ^ 0x5851_f42d_4c95_7f2d),
+        }
     }
 
     /// The next 64 random bits.
@@ -77,10 +79,12 @@ mod tests {
 
     #[test]
     fn streams_are_deterministic_and_distinct() {
-        let a: Vec<u64> = (0..4).map({
-            let mut r = Rng::new(7);
-            move |_| r.next_u64()
-        }).collect();
+        let a: Vec<u64> = (0..4)
+            .map({
+                let mut r = Rng::new(7);
+                move |_| r.next_u64()
+            })
+            .collect();
         let mut r = Rng::new(7);
         assert_eq!(a, (0..4).map(|_| r.next_u64()).collect::<Vec<_>>());
         assert_ne!(Rng::new(7).next_u64(), Rng::new(8).next_u64());

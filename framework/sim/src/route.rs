@@ -31,8 +31,14 @@ pub enum Overlap {
 
 impl Overlap {
     /// Pattern by robot index within a group of six.
-    pub const FOR_ROBOT: [Overlap; 6] =
-        [Overlap::Leader, Overlap::Reverse, Overlap::SameDirection, Overlap::Partial, Overlap::Crossing, Overlap::FarStart];
+    pub const FOR_ROBOT: [Overlap; 6] = [
+        Overlap::Leader,
+        Overlap::Reverse,
+        Overlap::SameDirection,
+        Overlap::Partial,
+        Overlap::Crossing,
+        Overlap::FarStart,
+    ];
 }
 
 /// A robot's planned route: the junction walk and its centre line.
@@ -48,18 +54,31 @@ pub struct Route {
 
 /// Walks from `start`, choosing at each junction the least-used edge that does not turn back (unless
 /// at a dead end), with edges in `avoid` penalised, until `length_m` is reached.
-fn walk(graph: &RoadGraph, rng: &mut Rng, start: usize, length_m: f64, avoid: &[usize], first_edge: Option<usize>) -> Vec<(usize, usize)> {
+fn walk(
+    graph: &RoadGraph,
+    rng: &mut Rng,
+    start: usize,
+    length_m: f64,
+    avoid: &[usize],
+    first_edge: Option<usize>,
+) -> Vec<(usize, usize)> {
     let adjacency = graph.adjacency();
     let mut visits = vec![0u32; graph.edges.len()];
     let (mut node, mut previous, mut travelled) = (start, usize::MAX, 0.0);
     let mut steps = Vec::new();
     while travelled < length_m {
-        let options: Vec<usize> = adjacency[node].iter().copied().filter(|&e| e != previous || adjacency[node].len() == 1).collect();
+        let options: Vec<usize> = adjacency[node]
+            .iter()
+            .copied()
+            .filter(|&e| e != previous || adjacency[node].len() == 1)
+            .collect();
         let edge = match (steps.is_empty(), first_edge) {
             (true, Some(e)) => e,
             _ => {
                 let score = |e: usize, rng: &mut Rng| {
-                    f64::from(visits[e]) * 10.0 + if avoid.contains(&e) { 6.0 } else { 0.0 } + rng.uniform() * 3.0
+                    f64::from(visits[e]) * 10.0
+                        + if avoid.contains(&e) { 6.0 } else { 0.0 }
+                        + rng.uniform() * 3.0
                 };
                 let scored: Vec<(f64, usize)> = options.iter().map(|&e| (score(e, rng), e)).collect();
                 match scored.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)) {
@@ -78,7 +97,11 @@ fn walk(graph: &RoadGraph, rng: &mut Rng, start: usize, length_m: f64, avoid: &[
 }
 
 fn reversed(graph: &RoadGraph, steps: &[(usize, usize)]) -> Vec<(usize, usize)> {
-    steps.iter().rev().map(|&(e, from)| (e, graph.other(e, from))).collect()
+    steps
+        .iter()
+        .rev()
+        .map(|&(e, from)| (e, graph.other(e, from)))
+        .collect()
 }
 
 /// Index of the first step at which `fraction` of the walk's length has been covered.
@@ -102,7 +125,9 @@ fn shortest_path(graph: &RoadGraph, from: usize, to: usize) -> Vec<(usize, usize
     let mut done = vec![false; graph.nodes.len()];
     dist[from] = 0.0;
     loop {
-        let current = (0..graph.nodes.len()).filter(|&n| !done[n] && dist[n].is_finite()).min_by(|&a, &b| dist[a].total_cmp(&dist[b]));
+        let current = (0..graph.nodes.len())
+            .filter(|&n| !done[n] && dist[n].is_finite())
+            .min_by(|&a, &b| dist[a].total_cmp(&dist[b]));
         let Some(n) = current else { break };
         done[n] = true;
         if n == to {
@@ -147,15 +172,32 @@ pub fn plan_route(world: &World, seed: u64, robot: u32, length_m: f64) -> Route 
         Overlap::SameDirection => {
             let mut steps = base[step_at_fraction(graph, &base, 0.4)..].to_vec();
             let covered: f64 = steps.iter().map(|&(e, _)| graph.edge_length_m(e)).sum();
-            let tail = walk(graph, &mut own, end_node(graph, &steps, base_start), length_m - covered, &base_edges, None);
+            let tail = walk(
+                graph,
+                &mut own,
+                end_node(graph, &steps, base_start),
+                length_m - covered,
+                &base_edges,
+                None,
+            );
             steps.extend(tail);
             steps
         }
         Overlap::Partial => {
-            let (from, to) = (step_at_fraction(graph, &base, 0.5), step_at_fraction(graph, &base, 0.75));
+            let (from, to) = (
+                step_at_fraction(graph, &base, 0.5),
+                step_at_fraction(graph, &base, 0.75),
+            );
             let mut steps = base[from..to.max(from + 1).min(base.len())].to_vec();
             let covered: f64 = steps.iter().map(|&(e, _)| graph.edge_length_m(e)).sum();
-            let tail = walk(graph, &mut own, end_node(graph, &steps, base_start), length_m - covered, &base_edges, None);
+            let tail = walk(
+                graph,
+                &mut own,
+                end_node(graph, &steps, base_start),
+                length_m - covered,
+                &base_edges,
+                None,
+            );
             steps.extend(tail);
             steps
         }
@@ -165,9 +207,27 @@ pub fn plan_route(world: &World, seed: u64, robot: u32, length_m: f64) -> Route 
                 .map(|i| base[i].1)
                 .find(|&n| adjacency[n].iter().filter(|e| !base_edges.contains(e)).count() >= 2)
                 .unwrap_or(base[base.len() / 2].1);
-            let free: Vec<usize> = adjacency[crossing].iter().copied().filter(|e| !base_edges.contains(e)).collect();
-            let first = walk(graph, &mut own, crossing, length_m / 2.0, &base_edges, free.first().copied());
-            let second = walk(graph, &mut own, crossing, length_m / 2.0, &base_edges, free.get(1).copied());
+            let free: Vec<usize> = adjacency[crossing]
+                .iter()
+                .copied()
+                .filter(|e| !base_edges.contains(e))
+                .collect();
+            let first = walk(
+                graph,
+                &mut own,
+                crossing,
+                length_m / 2.0,
+                &base_edges,
+                free.first().copied(),
+            );
+            let second = walk(
+                graph,
+                &mut own,
+                crossing,
+                length_m / 2.0,
+                &base_edges,
+                free.get(1).copied(),
+            );
             let mut steps = reversed(graph, &first);
             steps.extend(second);
             steps
@@ -203,5 +263,10 @@ pub fn plan_route(world: &World, seed: u64, robot: u32, length_m: f64) -> Route 
         let skip = usize::from(!centre_line.is_empty());
         centre_line.extend(line.into_iter().skip(skip));
     }
-    Route { robot, overlap, steps, centre_line }
+    Route {
+        robot,
+        overlap,
+        steps,
+        centre_line,
+    }
 }

@@ -32,16 +32,32 @@ pub struct ScanNoise {
 impl ScanNoise {
     /// No noise at all: exact ranges, no dropouts, no spurious returns (the physical losses at grazing
     /// incidence and for weak returns still apply).
-    pub const NONE: Self = Self { range_noise_scale: 0.0, dropout_rate: 0.0, spurious_rate: 0.0 };
+    pub const NONE: Self = Self {
+        range_noise_scale: 0.0,
+        dropout_rate: 0.0,
+        spurious_rate: 0.0,
+    };
 }
 
 impl Default for ScanNoise {
     fn default() -> Self {
-        Self { range_noise_scale: 1.0, dropout_rate: 0.01, spurious_rate: 0.0005 }
+        Self {
+            range_noise_scale: 1.0,
+            dropout_rate: 0.01,
+            spurious_rate: 0.0005,
+        }
     }
 }
 
-fn cast_ray(world: &World, sensor: &Sensor, noise: &ScanNoise, origin: V3, rotation: &[[f32; 3]; 3], dir: V3, key: u64) -> Option<(f32, f32)> {
+fn cast_ray(
+    world: &World,
+    sensor: &Sensor,
+    noise: &ScanNoise,
+    origin: V3,
+    rotation: &[[f32; 3]; 3],
+    dir: V3,
+    key: u64,
+) -> Option<(f32, f32)> {
     let world_dir = V3::new(
         rotation[0][0] * dir.x + rotation[0][1] * dir.y + rotation[0][2] * dir.z,
         rotation[1][0] * dir.x + rotation[1][1] * dir.y + rotation[1][2] * dir.z,
@@ -61,11 +77,16 @@ fn cast_ray(world: &World, sensor: &Sensor, noise: &ScanNoise, origin: V3, rotat
     }
     let (mut range, mut intensity) = (range, albedo * cos_incidence * (1.0 + 0.03 * rng.gaussian()));
     if rng.chance(noise.spurious_rate) {
-        range = if rng.chance(0.5) { rng.range(sensor.min_range_m, range) } else { range + rng.range(0.5, 15.0) };
+        range = if rng.chance(0.5) {
+            rng.range(sensor.min_range_m, range)
+        } else {
+            range + rng.range(0.5, 15.0)
+        };
         intensity = rng.range(0.0, 0.1);
     }
     range += sensor.range_noise_m * noise.range_noise_scale * rng.gaussian();
-    (range >= sensor.min_range_m && range <= sensor.max_range_m).then_some((range as f32, intensity.clamp(0.0, 1.0) as f32))
+    (range >= sensor.min_range_m && range <= sensor.max_range_m)
+        .then_some((range as f32, intensity.clamp(0.0, 1.0) as f32))
 }
 
 /// Simulates one sweep starting at `sweep_start_s`, with `world_from_sensor(t)` giving the sensor pose
@@ -91,17 +112,24 @@ pub fn simulate_sweep(
         for (ray, slot) in out.iter_mut().enumerate() {
             let dir = sensor.direction(group, ray, sweep_start_s);
             let ray_key = combine(key, (group * per_group + ray) as u64);
-            *slot = cast_ray(world, sensor, noise, origin, &rotation, dir, ray_key).map(|(range, intensity)| {
-                let p = dir * range;
-                RawPoint::new(p.x, p.y, p.z, intensity, offset_s as f32, ray as u16)
-            });
+            *slot =
+                cast_ray(world, sensor, noise, origin, &rotation, dir, ray_key).map(|(range, intensity)| {
+                    let p = dir * range;
+                    RawPoint::new(p.x, p.y, p.z, intensity, offset_s as f32, ray as u16)
+                });
         }
     };
     let mut slots = vec![None; sensor.rays_per_sweep()];
     if parallel {
-        slots.par_chunks_mut(per_group).enumerate().for_each(|(group, out)| group_points(group, out));
+        slots
+            .par_chunks_mut(per_group)
+            .enumerate()
+            .for_each(|(group, out)| group_points(group, out));
     } else {
-        slots.chunks_mut(per_group).enumerate().for_each(|(group, out)| group_points(group, out));
+        slots
+            .chunks_mut(per_group)
+            .enumerate()
+            .for_each(|(group, out)| group_points(group, out));
     }
     slots.into_iter().flatten().collect()
 }

@@ -28,10 +28,18 @@ pub const SWEEP_PERIOD_S: f64 = 0.1;
 #[derive(Clone, Debug)]
 pub enum Pattern {
     /// A spinning multi-beam sensor: `elevations_rad[ring]` ascending, `columns` firings per sweep.
-    Spinning { elevations_rad: Vec<f64>, columns: usize },
+    Spinning {
+        elevations_rad: Vec<f64>,
+        columns: usize,
+    },
     /// A non-repetitive rosette: `points` per sweep from `emitters` emitters, within ±`half_h_rad`
     /// horizontally and ±`half_v_rad` vertically about the x axis.
-    Rosette { points: usize, emitters: usize, half_h_rad: f64, half_v_rad: f64 },
+    Rosette {
+        points: usize,
+        emitters: usize,
+        half_h_rad: f64,
+        half_v_rad: f64,
+    },
 }
 
 /// A LiDAR model.
@@ -54,7 +62,9 @@ pub const SENSOR_NAMES: [&str; 5] = ["vlp16", "os1-32", "os1-64", "hdl64e", "avi
 const PRISM_HZ: [f64; 2] = [97.3, -61.1];
 
 fn uniform_deg(beams: usize, low_deg: f64, high_deg: f64) -> Vec<f64> {
-    (0..beams).map(|i| (low_deg + (high_deg - low_deg) * i as f64 / (beams - 1) as f64).to_radians()).collect()
+    (0..beams)
+        .map(|i| (low_deg + (high_deg - low_deg) * i as f64 / (beams - 1) as f64).to_radians())
+        .collect()
 }
 
 fn hdl64e_elevations_rad() -> Vec<f64> {
@@ -68,15 +78,26 @@ impl Sensor {
     /// The sensor called `name` (case, `-`, `_` and spaces ignored: `OS1-64`, `os1_64` and `os164` all
     /// work; `hdl64`, `velodyne16` and `livox_avia` are aliases).
     pub fn by_name(name: &str) -> Result<Self, SimError> {
-        let key: String = name.chars().filter(|c| c.is_ascii_alphanumeric()).collect::<String>().to_ascii_lowercase();
+        let key: String = name
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric())
+            .collect::<String>()
+            .to_ascii_lowercase();
         let sensor = match key.as_str() {
-            "vlp16" | "velodyne16" | "puck" => Self::spinning("vlp16", uniform_deg(16, -15.0, 15.0), 1800, 0.5, 100.0, 0.015),
+            "vlp16" | "velodyne16" | "puck" => {
+                Self::spinning("vlp16", uniform_deg(16, -15.0, 15.0), 1800, 0.5, 100.0, 0.015)
+            }
             "os132" => Self::spinning("os1-32", uniform_deg(32, -16.6, 16.6), 1024, 0.8, 120.0, 0.015),
             "os164" => Self::spinning("os1-64", uniform_deg(64, -16.6, 16.6), 1024, 0.8, 120.0, 0.015),
             "hdl64e" | "hdl64" => Self::spinning("hdl64e", hdl64e_elevations_rad(), 2048, 0.9, 120.0, 0.02),
             "avia" | "livoxavia" | "livox" => Self {
                 name: "avia",
-                pattern: Pattern::Rosette { points: 24_000, emitters: 6, half_h_rad: 35.2f64.to_radians(), half_v_rad: 38.6f64.to_radians() },
+                pattern: Pattern::Rosette {
+                    points: 24_000,
+                    emitters: 6,
+                    half_h_rad: 35.2f64.to_radians(),
+                    half_v_rad: 38.6f64.to_radians(),
+                },
                 min_range_m: 1.0,
                 max_range_m: 190.0,
                 range_noise_m: 0.02,
@@ -92,15 +113,36 @@ impl Sensor {
         Ok(sensor)
     }
 
-    fn spinning(name: &'static str, elevations_rad: Vec<f64>, columns: usize, min_range_m: f64, max_range_m: f64, range_noise_m: f64) -> Self {
+    fn spinning(
+        name: &'static str,
+        elevations_rad: Vec<f64>,
+        columns: usize,
+        min_range_m: f64,
+        max_range_m: f64,
+        range_noise_m: f64,
+    ) -> Self {
         let mut directions = Vec::with_capacity(columns * elevations_rad.len());
         for column in 0..columns {
             let azimuth = Self::column_azimuth_rad(column, columns);
             for &elevation in &elevations_rad {
-                directions.push(V3::from_f64(elevation.cos() * azimuth.cos(), elevation.cos() * azimuth.sin(), elevation.sin()));
+                directions.push(V3::from_f64(
+                    elevation.cos() * azimuth.cos(),
+                    elevation.cos() * azimuth.sin(),
+                    elevation.sin(),
+                ));
             }
         }
-        Self { name, pattern: Pattern::Spinning { elevations_rad, columns }, min_range_m, max_range_m, range_noise_m, directions }
+        Self {
+            name,
+            pattern: Pattern::Spinning {
+                elevations_rad,
+                columns,
+            },
+            min_range_m,
+            max_range_m,
+            range_noise_m,
+            directions,
+        }
     }
 
     /// Azimuth of column `column`: starts just left of straight behind and decreases (clockwise).
@@ -139,14 +181,23 @@ impl Sensor {
     pub fn direction(&self, group: usize, ray: usize, sweep_start_s: f64) -> V3 {
         match &self.pattern {
             Pattern::Spinning { elevations_rad, .. } => self.directions[group * elevations_rad.len() + ray],
-            Pattern::Rosette { emitters, half_h_rad, half_v_rad, .. } => {
+            Pattern::Rosette {
+                emitters,
+                half_h_rad,
+                half_v_rad,
+                ..
+            } => {
                 let t = sweep_start_s + self.group_time_offset_s(group);
                 let phase = std::f64::consts::TAU * ray as f64 / *emitters as f64;
                 let a = std::f64::consts::TAU * PRISM_HZ[0] * t + phase;
                 let b = std::f64::consts::TAU * PRISM_HZ[1] * t + 0.37 * phase;
                 let (u, v) = (0.5 * (a.cos() + b.cos()), 0.5 * (a.sin() + b.sin()));
                 let (azimuth, elevation) = (half_h_rad * u, half_v_rad * v);
-                V3::from_f64(elevation.cos() * azimuth.cos(), elevation.cos() * azimuth.sin(), elevation.sin())
+                V3::from_f64(
+                    elevation.cos() * azimuth.cos(),
+                    elevation.cos() * azimuth.sin(),
+                    elevation.sin(),
+                )
             }
         }
     }

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::slots::Source;
 use skid_core::{PluginContext, PluginEntry, PluginError, PluginResult, Registry, RobotId, Scan};
 
+use crate::SimError;
 use crate::imu::{ImuNoise, ImuSimulator};
 use crate::motion::{MotionSpec, Profile, trajectory};
 use crate::rng::combine;
@@ -16,7 +17,6 @@ use crate::scan::{ScanNoise, simulate_sweep};
 use crate::sensor::{SWEEP_PERIOD_S, Sensor};
 use crate::trajectory::Trajectory;
 use crate::world::{World, WorldKind};
-use crate::SimError;
 
 /// Largest fleet the simulator plans routes for.
 pub const MAX_ROBOTS: u32 = 16;
@@ -84,27 +84,68 @@ impl SimConfig {
         let kind: WorldKind = self.world.parse()?;
         let sensor = Sensor::by_name(&self.sensor)?;
         if self.robots == 0 || self.robots > MAX_ROBOTS {
-            return Err(SimError::RobotCount { robots: self.robots, max: MAX_ROBOTS });
+            return Err(SimError::RobotCount {
+                robots: self.robots,
+                max: MAX_ROBOTS,
+            });
         }
-        let check = |ok: bool, what: String| if ok { Ok(()) } else { Err(SimError::InvalidConfig(what)) };
-        check((0.1..=20.0).contains(&self.speed_mps), format!("speed_mps = {} must be within 0.1–20 m/s", self.speed_mps))?;
-        check((50.0..=5000.0).contains(&self.route_length_m), format!("route_length_m = {} must be within 50–5000 m", self.route_length_m))?;
-        check(self.range_noise_scale >= 0.0 && self.range_noise_scale.is_finite(), format!("range_noise_scale = {} must be ≥ 0", self.range_noise_scale))?;
-        for (name, rate) in [("dropout_rate", self.dropout_rate), ("spurious_rate", self.spurious_rate)] {
-            check((0.0..=1.0).contains(&rate), format!("{name} = {rate} must be within 0–1"))?;
+        let check = |ok: bool, what: String| {
+            if ok {
+                Ok(())
+            } else {
+                Err(SimError::InvalidConfig(what))
+            }
+        };
+        check(
+            (0.1..=20.0).contains(&self.speed_mps),
+            format!("speed_mps = {} must be within 0.1–20 m/s", self.speed_mps),
+        )?;
+        check(
+            (50.0..=5000.0).contains(&self.route_length_m),
+            format!(
+                "route_length_m = {} must be within 50–5000 m",
+                self.route_length_m
+            ),
+        )?;
+        check(
+            self.range_noise_scale >= 0.0 && self.range_noise_scale.is_finite(),
+            format!("range_noise_scale = {} must be ≥ 0", self.range_noise_scale),
+        )?;
+        for (name, rate) in [
+            ("dropout_rate", self.dropout_rate),
+            ("spurious_rate", self.spurious_rate),
+        ] {
+            check(
+                (0.0..=1.0).contains(&rate),
+                format!("{name} = {rate} must be within 0–1"),
+            )?;
         }
-        check(self.imu_model.rate_hz >= 10.0 && self.imu_model.rate_hz <= 2000.0, format!("imu_model.rate_hz = {} must be within 10–2000", self.imu_model.rate_hz))?;
+        check(
+            self.imu_model.rate_hz >= 10.0 && self.imu_model.rate_hz <= 2000.0,
+            format!(
+                "imu_model.rate_hz = {} must be within 10–2000",
+                self.imu_model.rate_hz
+            ),
+        )?;
         Ok((kind, sensor))
     }
 
     /// The scan degradations.
     pub fn scan_noise(&self) -> ScanNoise {
-        ScanNoise { range_noise_scale: self.range_noise_scale, dropout_rate: self.dropout_rate, spurious_rate: self.spurious_rate }
+        ScanNoise {
+            range_noise_scale: self.range_noise_scale,
+            dropout_rate: self.dropout_rate,
+            spurious_rate: self.spurious_rate,
+        }
     }
 
     /// The motion parameters.
     pub fn motion(&self) -> MotionSpec {
-        MotionSpec { speed_mps: self.speed_mps, profile: self.profile, ..MotionSpec::default() }
+        MotionSpec {
+            speed_mps: self.speed_mps,
+            profile: self.profile,
+            ..MotionSpec::default()
+        }
     }
 }
 
@@ -125,7 +166,11 @@ pub struct SimSource {
 
 impl std::fmt::Debug for SimSource {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SimSource").field("robot", &self.robot).field("sensor", &self.sensor.name).field("next_sequence", &self.next_sequence).finish()
+        f.debug_struct("SimSource")
+            .field("robot", &self.robot)
+            .field("sensor", &self.sensor.name)
+            .field("next_sequence", &self.next_sequence)
+            .finish()
     }
 }
 
@@ -134,22 +179,50 @@ impl SimSource {
     pub fn new(config: &SimConfig, robot: u32, threads: usize) -> Result<Self, SimError> {
         let (kind, sensor) = config.validate()?;
         if robot >= config.robots {
-            return Err(SimError::RobotIndex { index: robot, robots: config.robots });
+            return Err(SimError::RobotIndex {
+                index: robot,
+                robots: config.robots,
+            });
         }
         let world = World::shared(kind, config.seed);
         let route = plan_route(&world, config.seed, robot, config.route_length_m);
         let trajectory = Arc::new(trajectory(&world, &route, &config.motion()));
         // The last sweep must end before the trajectory does.
-        let available = ((trajectory.end_s() - SWEEP_PERIOD_S) / SWEEP_PERIOD_S).floor().max(0.0) as u32;
-        let scan_count = if config.frames == 0 { available } else { config.frames.min(available) };
+        let available = ((trajectory.end_s() - SWEEP_PERIOD_S) / SWEEP_PERIOD_S)
+            .floor()
+            .max(0.0) as u32;
+        let scan_count = if config.frames == 0 {
+            available
+        } else {
+            config.frames.min(available)
+        };
         let key = combine(combine(config.seed, 0x5ca1), u64::from(robot));
-        let imu = config.imu.then(|| ImuSimulator::new(config.imu_noise.then_some(config.imu_model), combine(key, 1)));
+        let imu = config
+            .imu
+            .then(|| ImuSimulator::new(config.imu_noise.then_some(config.imu_model), combine(key, 1)));
         let pool = if threads > 1 {
-            Some(rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| SimError::InvalidConfig(format!("thread pool: {e}")))?)
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| SimError::InvalidConfig(format!("thread pool: {e}")))?,
+            )
         } else {
             None
         };
-        Ok(Self { world, sensor, route, trajectory, robot: RobotId(robot), noise: config.scan_noise(), imu, key, next_sequence: 0, scan_count, pool })
+        Ok(Self {
+            world,
+            sensor,
+            route,
+            trajectory,
+            robot: RobotId(robot),
+            noise: config.scan_noise(),
+            imu,
+            key,
+            next_sequence: 0,
+            scan_count,
+            pool,
+        })
     }
 
     pub fn world(&self) -> &Arc<World> {
@@ -188,8 +261,26 @@ impl SimSource {
         let poses = move |t: f64| trajectory.pose_at(t);
         let key = combine(self.key, u64::from(sequence) + 2);
         let points = match &self.pool {
-            Some(pool) => pool.install(|| simulate_sweep(&self.world, &self.sensor, &poses, sweep_start_s, &self.noise, key, true)),
-            None => simulate_sweep(&self.world, &self.sensor, &poses, sweep_start_s, &self.noise, key, false),
+            Some(pool) => pool.install(|| {
+                simulate_sweep(
+                    &self.world,
+                    &self.sensor,
+                    &poses,
+                    sweep_start_s,
+                    &self.noise,
+                    key,
+                    true,
+                )
+            }),
+            None => simulate_sweep(
+                &self.world,
+                &self.sensor,
+                &poses,
+                sweep_start_s,
+                &self.noise,
+                key,
+                false,
+            ),
         };
         Scan {
             robot: self.robot,
@@ -221,7 +312,10 @@ impl SimSource {
         }
         self.next_sequence = (self.next_sequence + count).min(self.scan_count);
         if let Some(imu) = self.imu.as_mut() {
-            let _ = imu.samples_until(&self.trajectory, Self::stamp_nanos(self.next_sequence.saturating_sub(1)));
+            let _ = imu.samples_until(
+                &self.trajectory,
+                Self::stamp_nanos(self.next_sequence.saturating_sub(1)),
+            );
         }
     }
 }

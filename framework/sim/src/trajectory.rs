@@ -21,8 +21,16 @@ pub struct Trajectory {
 fn basis(u: f64) -> ([f64; 3], [f64; 3], [f64; 3]) {
     let (u2, u3) = (u * u, u * u * u);
     (
-        [(5.0 + 3.0 * u - 3.0 * u2 + u3) / 6.0, (1.0 + 3.0 * u + 3.0 * u2 - 2.0 * u3) / 6.0, u3 / 6.0],
-        [(3.0 - 6.0 * u + 3.0 * u2) / 6.0, (3.0 + 6.0 * u - 6.0 * u2) / 6.0, u2 / 2.0],
+        [
+            (5.0 + 3.0 * u - 3.0 * u2 + u3) / 6.0,
+            (1.0 + 3.0 * u + 3.0 * u2 - 2.0 * u3) / 6.0,
+            u3 / 6.0,
+        ],
+        [
+            (3.0 - 6.0 * u + 3.0 * u2) / 6.0,
+            (3.0 + 6.0 * u - 6.0 * u2) / 6.0,
+            u2 / 2.0,
+        ],
         [u - 1.0, 1.0 - 2.0 * u, u],
     )
 }
@@ -31,8 +39,15 @@ impl Trajectory {
     /// A trajectory through `controls` (at least one). Before the first and after the last control pose
     /// the trajectory holds still.
     pub fn new(start_s: f64, dt_s: f64, controls: Vec<Pose>) -> Self {
-        assert!(!controls.is_empty() && dt_s > 0.0, "a trajectory needs control poses and a positive spacing");
-        Self { start_s, dt_s, controls }
+        assert!(
+            !controls.is_empty() && dt_s > 0.0,
+            "a trajectory needs control poses and a positive spacing"
+        );
+        Self {
+            start_s,
+            dt_s,
+            controls,
+        }
     }
 
     pub fn start_s(&self) -> f64 {
@@ -67,11 +82,11 @@ impl Trajectory {
         let first = self.control(i - 1);
         let mut position = first.translation.vector;
         let mut rotation = first.rotation;
-        for j in 0..3 {
+        for (j, weight) in b.into_iter().enumerate() {
             let (prev, next) = (self.control(i - 1 + j as i64), self.control(i + j as i64));
-            position += (next.translation.vector - prev.translation.vector) * b[j];
+            position += (next.translation.vector - prev.translation.vector) * weight;
             let delta = (prev.rotation.inverse() * next.rotation).scaled_axis();
-            rotation *= UnitQuaternion::from_scaled_axis(delta * b[j]);
+            rotation *= UnitQuaternion::from_scaled_axis(delta * weight);
         }
         Pose::from_parts(Translation3::from(position), rotation)
     }
@@ -82,7 +97,8 @@ impl Trajectory {
         let (_, db, ddb) = basis(u);
         let (mut velocity, mut acceleration) = (Vector3::zeros(), Vector3::zeros());
         for j in 0..3 {
-            let delta = self.control(i + j as i64).translation.vector - self.control(i - 1 + j as i64).translation.vector;
+            let delta = self.control(i + j as i64).translation.vector
+                - self.control(i - 1 + j as i64).translation.vector;
             velocity += delta * (db[j] / self.dt_s);
             acceleration += delta * (ddb[j] / (self.dt_s * self.dt_s));
         }
@@ -118,7 +134,9 @@ mod tests {
         let p = trajectory.pose_at(2.03).translation.vector;
         assert!((p - Vector3::new(4.06, 0.0, 1.0)).norm() < 1e-9, "{p}");
         // Numerical derivative of the position agrees with the analytic velocity.
-        let numeric = (trajectory.pose_at(2.031).translation.vector - trajectory.pose_at(2.029).translation.vector) / 0.002;
+        let numeric = (trajectory.pose_at(2.031).translation.vector
+            - trajectory.pose_at(2.029).translation.vector)
+            / 0.002;
         assert!((numeric - v).norm() < 1e-6);
     }
 }

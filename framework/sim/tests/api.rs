@@ -6,29 +6,81 @@ mod common;
 use nalgebra::Vector3;
 use skid_core::{Params, PluginContext, Registry, RobotId};
 use skid_sim::{
-    MAX_ROBOTS, Overlap, SimConfig, SimError, SimSource, World, WorldKind, export_fleet_kitti, export_kitti, plan_route,
-    preview_fleet_png,
+    MAX_ROBOTS, Overlap, SimConfig, SimError, SimSource, World, WorldKind, export_fleet_kitti, export_kitti,
+    plan_route, preview_fleet_png,
 };
 
 fn small(world: &str) -> SimConfig {
-    SimConfig { world: world.to_owned(), sensor: "vlp16".to_owned(), robots: 6, frames: 3, ..SimConfig::default() }
+    SimConfig {
+        world: world.to_owned(),
+        sensor: "vlp16".to_owned(),
+        robots: 6,
+        frames: 3,
+        ..SimConfig::default()
+    }
 }
 
 #[test]
 fn bad_settings_are_clear_errors() {
-    let error = SimSource::new(&SimConfig { world: "moon".into(), ..SimConfig::default() }, 0, 1).unwrap_err();
+    let error = SimSource::new(
+        &SimConfig {
+            world: "moon".into(),
+            ..SimConfig::default()
+        },
+        0,
+        1,
+    )
+    .unwrap_err();
     assert!(matches!(error, SimError::UnknownWorld { .. }));
-    assert!(error.to_string().contains("moon") && error.to_string().contains("planetary, cave, urban"), "{error}");
-    let error = SimSource::new(&SimConfig { sensor: "hdl-32".into(), ..SimConfig::default() }, 0, 1).unwrap_err();
-    assert!(error.to_string().contains("hdl-32") && error.to_string().contains("avia"), "{error}");
+    assert!(
+        error.to_string().contains("moon") && error.to_string().contains("planetary, cave, urban"),
+        "{error}"
+    );
+    let error = SimSource::new(
+        &SimConfig {
+            sensor: "hdl-32".into(),
+            ..SimConfig::default()
+        },
+        0,
+        1,
+    )
+    .unwrap_err();
+    assert!(
+        error.to_string().contains("hdl-32") && error.to_string().contains("avia"),
+        "{error}"
+    );
     for robots in [0, MAX_ROBOTS + 1] {
-        let error = SimSource::new(&SimConfig { robots, ..SimConfig::default() }, 0, 1).unwrap_err();
+        let error = SimSource::new(
+            &SimConfig {
+                robots,
+                ..SimConfig::default()
+            },
+            0,
+            1,
+        )
+        .unwrap_err();
         assert!(matches!(error, SimError::RobotCount { .. }), "{error}");
         assert!(error.to_string().contains("1 to 16"), "{error}");
     }
-    let error = SimSource::new(&SimConfig { robots: 2, ..SimConfig::default() }, 2, 1).unwrap_err();
+    let error = SimSource::new(
+        &SimConfig {
+            robots: 2,
+            ..SimConfig::default()
+        },
+        2,
+        1,
+    )
+    .unwrap_err();
     assert!(error.to_string().contains("robot index 2"), "{error}");
-    let error = SimSource::new(&SimConfig { speed_mps: -1.0, ..SimConfig::default() }, 0, 1).unwrap_err();
+    let error = SimSource::new(
+        &SimConfig {
+            speed_mps: -1.0,
+            ..SimConfig::default()
+        },
+        0,
+        1,
+    )
+    .unwrap_err();
     assert!(error.to_string().contains("speed_mps"), "{error}");
 
     // An output folder below a regular file cannot be created.
@@ -36,7 +88,10 @@ fn bad_settings_are_clear_errors() {
     let blocker = dir.path().join("file");
     std::fs::write(&blocker, b"x").unwrap();
     let error = export_fleet_kitti(blocker.join("out"), &small("urban"), 1).unwrap_err();
-    assert!(matches!(error, SimError::Io { .. }) && error.to_string().contains("file/out"), "{error}");
+    assert!(
+        matches!(error, SimError::Io { .. }) && error.to_string().contains("file/out"),
+        "{error}"
+    );
     let error = preview_fleet_png(blocker.join("preview.png"), &small("urban"), 32).unwrap_err();
     assert!(error.to_string().contains("preview.png"), "{error}");
 }
@@ -46,8 +101,14 @@ fn the_plugin_is_registered_and_checks_its_parameters() {
     let mut registry = Registry::new();
     skid_sim::register(&mut registry).unwrap();
     assert!(registry.source.get("sim").is_ok());
-    let params = Params::from_toml_str("world = \"urban\"\nsensor = \"os1-32\"\nrobots = 2\nframes = 2").unwrap();
-    let context = PluginContext { robot: RobotId(1), fleet_size: 2, threads: 2, ..PluginContext::default() };
+    let params =
+        Params::from_toml_str("world = \"urban\"\nsensor = \"os1-32\"\nrobots = 2\nframes = 2").unwrap();
+    let context = PluginContext {
+        robot: RobotId(1),
+        fleet_size: 2,
+        threads: 2,
+        ..PluginContext::default()
+    };
     let mut source = registry.source.create("sim", &params, &context).unwrap();
     assert_eq!(source.remaining_hint(), Some(2));
     let scan = source.next_scan().unwrap().unwrap();
@@ -56,16 +117,32 @@ fn the_plugin_is_registered_and_checks_its_parameters() {
     assert!(source.next_scan().unwrap().is_some() && source.next_scan().unwrap().is_none());
 
     let unknown = Params::from_toml_str("wrld = \"urban\"").unwrap();
-    let error = registry.source.create("sim", &unknown, &context).err().map(|e| e.to_string()).unwrap_or_default();
+    let error = registry
+        .source
+        .create("sim", &unknown, &context)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
     assert!(error.contains("wrld"), "{error}");
     let bad_world = Params::from_toml_str("world = \"mars\"").unwrap();
-    let error = registry.source.create("sim", &bad_world, &context).err().map(|e| e.to_string()).unwrap_or_default();
+    let error = registry
+        .source
+        .create("sim", &bad_world, &context)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
     assert!(error.contains("mars"), "{error}");
 }
 
 #[test]
 fn simulation_is_deterministic_and_seeded() {
-    let config = SimConfig { world: "urban".into(), sensor: "avia".into(), robots: 1, frames: 2, ..SimConfig::default() };
+    let config = SimConfig {
+        world: "urban".into(),
+        sensor: "avia".into(),
+        robots: 1,
+        frames: 2,
+        ..SimConfig::default()
+    };
     let a: Vec<_> = SimSource::new(&config, 0, 2).unwrap().collect();
     let b: Vec<_> = SimSource::new(&config, 0, 1).unwrap().collect();
     assert_eq!(a.len(), 2);
@@ -74,7 +151,9 @@ fn simulation_is_deterministic_and_seeded() {
         assert_eq!(x.imu, y.imu);
         assert_eq!(x.ground_truth_world_from_sensor, y.ground_truth_world_from_sensor);
     }
-    let other = SimSource::new(&SimConfig { seed: 8, ..config }, 0, 1).unwrap().scan_at(1);
+    let other = SimSource::new(&SimConfig { seed: 8, ..config }, 0, 1)
+        .unwrap()
+        .scan_at(1);
     assert_ne!(other.points, a[1].points);
 }
 
@@ -85,35 +164,66 @@ fn routes_overlap_in_the_ways_that_matter() {
         let routes: Vec<_> = (0..6).map(|robot| plan_route(&world, 7, robot, 600.0)).collect();
         let overlaps: Vec<Overlap> = routes.iter().map(|r| r.overlap).collect();
         assert_eq!(overlaps, Overlap::FOR_ROBOT.to_vec());
-        let length = |line: &[[f64; 3]]| line.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum::<f64>();
-        let near = |p: [f64; 3], line: &[[f64; 3]]| line.iter().any(|q| (p[0] - q[0]).hypot(p[1] - q[1]) < 3.0);
-        let shared = |a: &[[f64; 3]], b: &[[f64; 3]]| a.iter().filter(|p| near(**p, b)).count() as f64 / a.len() as f64;
+        let length = |line: &[[f64; 3]]| {
+            line.windows(2)
+                .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+                .sum::<f64>()
+        };
+        let near =
+            |p: [f64; 3], line: &[[f64; 3]]| line.iter().any(|q| (p[0] - q[0]).hypot(p[1] - q[1]) < 3.0);
+        let shared = |a: &[[f64; 3]], b: &[[f64; 3]]| {
+            a.iter().filter(|p| near(**p, b)).count() as f64 / a.len() as f64
+        };
         let leader = &routes[0].centre_line;
-        assert!(length(leader) >= 550.0 && length(leader) < 1200.0, "{kind}: leader drives {} m", length(leader));
+        assert!(
+            length(leader) >= 550.0 && length(leader) < 1200.0,
+            "{kind}: leader drives {} m",
+            length(leader)
+        );
         // Reverse: the same road, the other way round.
         let reverse = &routes[1].centre_line;
         assert!((reverse[0][0] - leader[leader.len() - 1][0]).abs() < 1e-9 && shared(reverse, leader) > 0.99);
         // Same direction: a later stretch of the leader's road, in the leader's direction.
         let same = &routes[2].centre_line;
-        assert!(shared(same, leader) > 0.3, "{kind}: same-direction overlap {}", shared(same, leader));
+        assert!(
+            shared(same, leader) > 0.3,
+            "{kind}: same-direction overlap {}",
+            shared(same, leader)
+        );
         // Partial: some shared road, mostly not.
         let partial = shared(&routes[3].centre_line, leader);
-        assert!(partial > 0.05 && partial < 0.8, "{kind}: partial overlap {partial}");
+        assert!(
+            partial > 0.05 && partial < 0.8,
+            "{kind}: partial overlap {partial}"
+        );
         // Crossing: meets the leader's road and also drives roads the leader never takes (in the
         // sparse cave network that can still be a good share of the route).
         let crossing = shared(&routes[4].centre_line, leader);
-        assert!(crossing > 0.0 && crossing < 0.9, "{kind}: crossing overlap {crossing}");
+        assert!(
+            crossing > 0.0 && crossing < 0.9,
+            "{kind}: crossing overlap {crossing}"
+        );
         // Far start: starts far from the leader's start, then joins its road.
         let far = &routes[5].centre_line;
         assert!((far[0][0] - leader[0][0]).hypot(far[0][1] - leader[0][1]) > 150.0);
-        assert!(shared(far, leader) > 0.1, "{kind}: far-start overlap {}", shared(far, leader));
+        assert!(
+            shared(far, leader) > 0.1,
+            "{kind}: far-start overlap {}",
+            shared(far, leader)
+        );
     }
 }
 
 #[test]
 fn ground_motion_is_plausible_and_ground_truth_is_exact() {
     for kind in WorldKind::ALL {
-        let config = SimConfig { world: kind.name().into(), robots: 1, route_length_m: 300.0, speed_mps: 1.5, ..SimConfig::default() };
+        let config = SimConfig {
+            world: kind.name().into(),
+            robots: 1,
+            route_length_m: 300.0,
+            speed_mps: 1.5,
+            ..SimConfig::default()
+        };
         let source = SimSource::new(&config, 0, 1).unwrap();
         let trajectory = source.trajectory();
         let world: &World = source.world();
@@ -127,11 +237,21 @@ fn ground_motion_is_plausible_and_ground_truth_is_exact() {
             max_tilt = max_tilt.max(up.angle(&Vector3::z()));
             let p = pose.translation.vector;
             let ground = world.ground_below(p.x, p.y, p.z, 5.0).unwrap_or(f64::NAN);
-            assert!((p.z - ground - 0.8).abs() < 0.35, "{kind}: sensor {} m above ground at t = {t}", p.z - ground);
+            assert!(
+                (p.z - ground - 0.8).abs() < 0.35,
+                "{kind}: sensor {} m above ground at t = {t}",
+                p.z - ground
+            );
             t += 0.5;
         }
-        assert!(max_speed < 1.55 && max_speed > 1.0, "{kind}: top speed {max_speed}");
-        assert!(max_tilt > 0.002 && max_tilt < 0.4, "{kind}: tilt up to {max_tilt} rad");
+        assert!(
+            max_speed < 1.55 && max_speed > 1.0,
+            "{kind}: top speed {max_speed}"
+        );
+        assert!(
+            max_tilt > 0.002 && max_tilt < 0.4,
+            "{kind}: tilt up to {max_tilt} rad"
+        );
         let scan = source.scan_at(17);
         assert_eq!(scan.ground_truth_world_from_sensor, Some(trajectory.pose_at(1.7)));
     }
@@ -139,7 +259,14 @@ fn ground_motion_is_plausible_and_ground_truth_is_exact() {
 
 #[test]
 fn imu_agrees_with_the_ground_truth() {
-    let config = SimConfig { world: "planetary".into(), robots: 1, frames: 40, imu_noise: false, sensor: "avia".into(), ..SimConfig::default() };
+    let config = SimConfig {
+        world: "planetary".into(),
+        robots: 1,
+        frames: 40,
+        imu_noise: false,
+        sensor: "avia".into(),
+        ..SimConfig::default()
+    };
     let mut source = SimSource::new(&config, 0, 2).unwrap();
     let trajectory = std::sync::Arc::clone(source.trajectory());
     let first = source.next().unwrap();
@@ -151,7 +278,11 @@ fn imu_agrees_with_the_ground_truth() {
     let mut previous = first;
     for scan in source.by_ref() {
         assert_eq!(scan.imu.len(), 20, "200 Hz between 10 Hz scans");
-        assert!(scan.imu.iter().all(|s| s.stamp_nanos > previous.stamp_nanos && s.stamp_nanos <= scan.stamp_nanos));
+        assert!(
+            scan.imu
+                .iter()
+                .all(|s| s.stamp_nanos > previous.stamp_nanos && s.stamp_nanos <= scan.stamp_nanos)
+        );
         // Integrating the gyroscope reproduces the true rotation between the scans.
         let mut rotation = trajectory.pose_at(previous.stamp_nanos as f64 * 1e-9).rotation;
         let mut t = previous.stamp_nanos;
@@ -161,12 +292,42 @@ fn imu_agrees_with_the_ground_truth() {
             t = sample.stamp_nanos;
         }
         let truth = trajectory.pose_at(scan.stamp_nanos as f64 * 1e-9).rotation;
-        assert!(rotation.angle_to(&truth) < 2e-4, "gyro integration off by {} rad", rotation.angle_to(&truth));
+        assert!(
+            rotation.angle_to(&truth) < 2e-4,
+            "gyro integration off by {} rad",
+            rotation.angle_to(&truth)
+        );
         previous = scan;
     }
     // With noise on, samples differ from the ideal ones but stay close.
-    let noisy = SimSource::new(&SimConfig { imu_noise: true, ..config }, 0, 1).unwrap().nth(5).unwrap();
-    let ideal = SimSource::new(&SimConfig { imu_noise: false, ..SimConfig { world: "planetary".into(), robots: 1, frames: 40, sensor: "avia".into(), ..SimConfig::default() } }, 0, 1).unwrap().nth(5).unwrap();
+    let noisy = SimSource::new(
+        &SimConfig {
+            imu_noise: true,
+            ..config
+        },
+        0,
+        1,
+    )
+    .unwrap()
+    .nth(5)
+    .unwrap();
+    let ideal = SimSource::new(
+        &SimConfig {
+            imu_noise: false,
+            ..SimConfig {
+                world: "planetary".into(),
+                robots: 1,
+                frames: 40,
+                sensor: "avia".into(),
+                ..SimConfig::default()
+            }
+        },
+        0,
+        1,
+    )
+    .unwrap()
+    .nth(5)
+    .unwrap();
     let difference = (Vector3::from(noisy.imu[0].accel_mps2) - Vector3::from(ideal.imu[0].accel_mps2)).norm();
     assert!(difference > 1e-4 && difference < 0.5, "{difference}");
 }
@@ -174,7 +335,13 @@ fn imu_agrees_with_the_ground_truth() {
 #[test]
 fn kitti_export_writes_a_readable_sequence() {
     let dir = tempfile::tempdir().unwrap();
-    let config = SimConfig { world: "cave".into(), sensor: "os1-32".into(), robots: 1, frames: 3, ..SimConfig::default() };
+    let config = SimConfig {
+        world: "cave".into(),
+        sensor: "os1-32".into(),
+        robots: 1,
+        frames: 3,
+        ..SimConfig::default()
+    };
     let mut source = SimSource::new(&config, 0, 2).unwrap();
     let expected: Vec<_> = (0..3).map(|k| source.scan_at(k)).collect();
     let summary = export_kitti(dir.path(), &mut source).unwrap();
@@ -184,11 +351,18 @@ fn kitti_export_writes_a_readable_sequence() {
     let x = f32::from_le_bytes([bin[0], bin[1], bin[2], bin[3]]);
     assert_eq!(x, expected[1].points[0].x);
     let poses = std::fs::read_to_string(dir.path().join("poses.txt")).unwrap();
-    let lines: Vec<Vec<f64>> = poses.lines().map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect()).collect();
+    let lines: Vec<Vec<f64>> = poses
+        .lines()
+        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .collect();
     assert_eq!(lines.len(), 3);
     assert!(lines.iter().all(|l| l.len() == 12));
-    assert_eq!(lines[0], vec![1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
-    let relative = expected[0].ground_truth_world_from_sensor.unwrap().inverse() * expected[2].ground_truth_world_from_sensor.unwrap();
+    assert_eq!(
+        lines[0],
+        vec![1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+    );
+    let relative = expected[0].ground_truth_world_from_sensor.unwrap().inverse()
+        * expected[2].ground_truth_world_from_sensor.unwrap();
     assert!((lines[2][3] - relative.translation.x).abs() < 1e-6);
     let times = std::fs::read_to_string(dir.path().join("times.txt")).unwrap();
     let stamps: Vec<f64> = times.lines().map(|l| l.trim().parse().unwrap()).collect();
@@ -202,7 +376,16 @@ fn kitti_export_writes_a_readable_sequence() {
 fn preview_is_a_png() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("world.png");
-    preview_fleet_png(&path, &SimConfig { world: "urban".into(), robots: 4, ..SimConfig::default() }, 96).unwrap();
+    preview_fleet_png(
+        &path,
+        &SimConfig {
+            world: "urban".into(),
+            robots: 4,
+            ..SimConfig::default()
+        },
+        96,
+    )
+    .unwrap();
     let bytes = std::fs::read(&path).unwrap();
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
 }
@@ -220,10 +403,22 @@ fn config_defaults_round_trip_and_refuse_unknown_keys() {
 
 #[test]
 fn aerial_profile_flies_above_the_ground() {
-    let config = SimConfig { world: "planetary".into(), robots: 1, route_length_m: 300.0, speed_mps: 3.0, profile: skid_sim::Profile::Aerial, frames: 1, ..SimConfig::default() };
+    let config = SimConfig {
+        world: "planetary".into(),
+        robots: 1,
+        route_length_m: 300.0,
+        speed_mps: 3.0,
+        profile: skid_sim::Profile::Aerial,
+        frames: 1,
+        ..SimConfig::default()
+    };
     let source = SimSource::new(&config, 0, 1).unwrap();
     let p = source.trajectory().pose_at(20.0).translation.vector;
     let ground = source.world().terrain_height(p.x, p.y).unwrap_or(f64::NAN);
-    assert!(p.z - ground > 6.0 && p.z - ground < 14.0, "{} m above ground", p.z - ground);
+    assert!(
+        p.z - ground > 6.0 && p.z - ground < 14.0,
+        "{} m above ground",
+        p.z - ground
+    );
     assert!(!source.scan_at(100).points.is_empty());
 }

@@ -9,7 +9,13 @@ use skid_sim::geometry::V3;
 use skid_sim::{SENSOR_NAMES, ScanNoise, Sensor, SimConfig, SimSource, WorldKind, simulate_sweep};
 
 fn config(world: WorldKind, sensor: &str) -> SimConfig {
-    SimConfig { world: world.name().to_owned(), sensor: sensor.to_owned(), robots: 1, spurious_rate: 0.0, ..SimConfig::default() }
+    SimConfig {
+        world: world.name().to_owned(),
+        sensor: sensor.to_owned(),
+        robots: 1,
+        spurious_rate: 0.0,
+        ..SimConfig::default()
+    }
 }
 
 #[test]
@@ -22,20 +28,34 @@ fn points_lie_on_surfaces_and_beams_match_the_tables() {
             let scan = source.scan_at(40);
             let sensor = source.sensor();
             let sigma = sensor.range_noise_m;
-            assert!(scan.points.len() > sensor.rays_per_sweep() / 10, "{world}/{sensor_name}: only {} points", scan.points.len());
+            assert!(
+                scan.points.len() > sensor.rays_per_sweep() / 10,
+                "{world}/{sensor_name}: only {} points",
+                scan.points.len()
+            );
             let (mut within_4_sigma, mut checked, mut worst) = (0usize, 0usize, 0.0f32);
             let step = (scan.points.len() / 3000).max(1);
             for p in scan.points.iter().step_by(step) {
-                let pose = source.trajectory().pose_at(scan.stamp_nanos as f64 * 1e-9 + f64::from(p.time_offset_s));
+                let pose = source
+                    .trajectory()
+                    .pose_at(scan.stamp_nanos as f64 * 1e-9 + f64::from(p.time_offset_s));
                 let q = pose * nalgebra::Point3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z));
-                let d = source.world().distance_to_surface(V3::from_f64(q.x, q.y, q.z), 1.0);
+                let d = source
+                    .world()
+                    .distance_to_surface(V3::from_f64(q.x, q.y, q.z), 1.0);
                 within_4_sigma += usize::from(f64::from(d) <= 4.0 * sigma + 2e-3);
                 worst = worst.max(d);
                 checked += 1;
             }
             let fraction = within_4_sigma as f64 / checked as f64;
-            assert!(fraction > 0.999, "{world}/{sensor_name}: {fraction} of points within 4σ of a surface");
-            assert!(f64::from(worst) < 7.0 * sigma, "{world}/{sensor_name}: a point is {worst} m off every surface");
+            assert!(
+                fraction > 0.999,
+                "{world}/{sensor_name}: {fraction} of points within 4σ of a surface"
+            );
+            assert!(
+                f64::from(worst) < 7.0 * sigma,
+                "{world}/{sensor_name}: a point is {worst} m off every surface"
+            );
 
             for p in &scan.points {
                 let elevation = f64::from(p.z).atan2(f64::from(p.x).hypot(f64::from(p.y)));
@@ -48,7 +68,11 @@ fn points_lie_on_surfaces_and_beams_match_the_tables() {
                     }
                     table => {
                         let expected = table[usize::from(p.ring)];
-                        assert!((elevation - expected).abs() < 2e-4, "{sensor_name}: ring {} at {elevation} rad, table {expected}", p.ring);
+                        assert!(
+                            (elevation - expected).abs() < 2e-4,
+                            "{sensor_name}: ring {} at {elevation} rad, table {expected}",
+                            p.ring
+                        );
                     }
                 }
             }
@@ -60,7 +84,11 @@ fn points_lie_on_surfaces_and_beams_match_the_tables() {
 fn spinning_sweeps_fire_columns_in_time_order() {
     let source = SimSource::new(&config(WorldKind::Urban, "vlp16"), 0, 1).unwrap();
     let scan = source.scan_at(30);
-    assert!(scan.points.windows(2).all(|w| w[0].time_offset_s <= w[1].time_offset_s));
+    assert!(
+        scan.points
+            .windows(2)
+            .all(|w| w[0].time_offset_s <= w[1].time_offset_s)
+    );
     let last = scan.points.last().map_or(0.0, |p| p.time_offset_s);
     assert!(last > 0.09, "sweep ends at {last} s");
 }
@@ -89,12 +117,18 @@ fn scans_a_known_motion_apart_align_back_to_it() {
         let truth_a = a.ground_truth_world_from_sensor.unwrap();
         let truth_b = b.ground_truth_world_from_sensor.unwrap();
         let expected = truth_a.inverse() * truth_b;
-        assert!(expected.translation.vector.norm() > 0.2, "{world}: the robot should be moving");
+        assert!(
+            expected.translation.vector.norm() > 0.2,
+            "{world}: the robot should be moving"
+        );
         let target = common::deskew(&a, source.trajectory());
         let cloud = common::deskew(&b, source.trajectory());
         let estimate = common::point_to_plane(&target, &cloud);
         let error = estimate.inverse() * expected;
-        let (horizontal, vertical) = (error.translation.vector.xy().norm(), error.translation.vector.z.abs());
+        let (horizontal, vertical) = (
+            error.translation.vector.xy().norm(),
+            error.translation.vector.z.abs(),
+        );
         let angle = error.rotation.angle();
         assert!(
             horizontal < horizontal_tolerance_m && vertical < 0.02 && angle < 0.3f64.to_radians(),
@@ -110,7 +144,10 @@ fn a_static_pair_with_a_large_offset_aligns() {
     let sensor = Sensor::by_name("os1-64").unwrap();
     let source = SimSource::new(&config(WorldKind::Urban, "os1-64"), 0, 1).unwrap();
     let a = source.trajectory().pose_at(30.0);
-    let motion = Pose::new(nalgebra::Vector3::new(0.8, 0.3, 0.05), nalgebra::Vector3::new(0.0, 0.01, 4f64.to_radians()));
+    let motion = Pose::new(
+        nalgebra::Vector3::new(0.8, 0.3, 0.05),
+        nalgebra::Vector3::new(0.0, 0.01, 4f64.to_radians()),
+    );
     let b = a * motion;
     let noise = ScanNoise::default();
     let cloud = |pose: Pose, key: u64| -> Vec<nalgebra::Point3<f64>> {
@@ -121,5 +158,9 @@ fn a_static_pair_with_a_large_offset_aligns() {
     };
     let estimate = common::point_to_plane(&cloud(a, 1), &cloud(b, 2));
     let (dt, dr) = common::pose_error(&estimate, &motion);
-    assert!(dt < 0.03 && dr < 0.2f64.to_radians(), "ICP off by {dt} m, {} deg", dr.to_degrees());
+    assert!(
+        dt < 0.03 && dr < 0.2f64.to_radians(),
+        "ICP off by {dt} m, {} deg",
+        dr.to_degrees()
+    );
 }

@@ -21,11 +21,23 @@ fn main() {
     let names: Vec<String> = args.collect();
     let worlds: Vec<WorldKind> = {
         let named: Vec<WorldKind> = names.iter().filter_map(|a| a.parse().ok()).collect();
-        if named.is_empty() { WorldKind::ALL.to_vec() } else { named }
+        if named.is_empty() {
+            WorldKind::ALL.to_vec()
+        } else {
+            named
+        }
     };
     let sensors: Vec<&str> = {
-        let named: Vec<&str> = SENSOR_NAMES.iter().copied().filter(|s| names.iter().any(|n| n == s)).collect();
-        if named.is_empty() { SENSOR_NAMES.to_vec() } else { named }
+        let named: Vec<&str> = SENSOR_NAMES
+            .iter()
+            .copied()
+            .filter(|s| names.iter().any(|n| n == s))
+            .collect();
+        if named.is_empty() {
+            SENSOR_NAMES.to_vec()
+        } else {
+            named
+        }
     };
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
     println!(
@@ -35,10 +47,19 @@ fn main() {
     for kind in worlds {
         let start = Instant::now();
         let world = World::shared(kind, 7);
-        println!("# {kind}: generated in {:.2} s, {} object triangles", start.elapsed().as_secs_f64(), world.triangle_count());
+        println!(
+            "# {kind}: generated in {:.2} s, {} object triangles",
+            start.elapsed().as_secs_f64(),
+            world.triangle_count()
+        );
         for &sensor in &sensors {
             for threads in [1, threads] {
-                let config = SimConfig { world: kind.name().to_owned(), sensor: sensor.to_owned(), frames: scans + 60, ..SimConfig::default() };
+                let config = SimConfig {
+                    world: kind.name().to_owned(),
+                    sensor: sensor.to_owned(),
+                    frames: scans + 60,
+                    ..SimConfig::default()
+                };
                 let mut source = match SimSource::new(&config, 0, threads) {
                     Ok(source) => source,
                     Err(error) => {

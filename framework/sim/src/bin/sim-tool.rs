@@ -9,7 +9,11 @@ use skid_sim::{SimConfig, export_fleet_kitti, preview_fleet_png};
 
 fn run(args: &[String]) -> Result<String, String> {
     let arg = |i: usize| args.get(i).map(String::as_str);
-    let number = |i: usize, default: u64| arg(i).map_or(Ok(default), |a| a.parse::<u64>().map_err(|e| format!("`{a}`: {e}")));
+    let number = |i: usize, default: u64| {
+        arg(i).map_or(Ok(default), |a| {
+            a.parse::<u64>().map_err(|e| format!("`{a}`: {e}"))
+        })
+    };
     match (arg(0), arg(1), arg(2), arg(3)) {
         (Some("preview"), Some(world), Some(out), _) => {
             let config = SimConfig { world: world.to_owned(), robots: number(3, 3)? as u32, seed: number(4, 7)?, ..SimConfig::default() };

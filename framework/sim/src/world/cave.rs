@@ -11,9 +11,9 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
+use super::Material;
 use super::WorldParts;
 use super::graph::{RoadGraph, jittered_grid};
-use super::Material;
 use crate::bvh::Mesh;
 use crate::geometry::V3;
 use crate::noise::{fbm3, value2, value3};
@@ -34,17 +34,25 @@ enum Piece {
 impl Piece {
     fn reach_m(&self) -> f64 {
         match self {
-            Piece::Tunnel { radius_m, .. } | Piece::Chamber { radius_m, .. } => radius_m * 1.3 + 0.2 + VOXEL_M,
+            Piece::Tunnel { radius_m, .. } | Piece::Chamber { radius_m, .. } => {
+                radius_m * 1.3 + 0.2 + VOXEL_M
+            }
         }
     }
 
     fn bounds(&self) -> ([f64; 3], [f64; 3]) {
         let r = self.reach_m();
         let (lo, hi) = match self {
-            Piece::Tunnel { a, b, .. } => ([a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])], [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])]),
+            Piece::Tunnel { a, b, .. } => (
+                [a[0].min(b[0]), a[1].min(b[1]), a[2].min(b[2])],
+                [a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2])],
+            ),
             Piece::Chamber { center, .. } => (*center, *center),
         };
-        ([lo[0] - r, lo[1] - r, lo[2] - r], [hi[0] + r, hi[1] + r, hi[2] + r])
+        (
+            [lo[0] - r, lo[1] - r, lo[2] - r],
+            [hi[0] + r, hi[1] + r, hi[2] + r],
+        )
     }
 
     /// Signed distance (negative inside) given the wall noise `coarse` and `fine` at q.
@@ -62,7 +70,10 @@ impl Piece {
                 wall.max(floor)
             }
             Piece::Chamber { center, radius_m } => {
-                let d = ((q[0] - center[0]).powi(2) + (q[1] - center[1]).powi(2) + ((q[2] - center[2] - 1.0) / 0.6).powi(2)).sqrt();
+                let d = ((q[0] - center[0]).powi(2)
+                    + (q[1] - center[1]).powi(2)
+                    + ((q[2] - center[2] - 1.0) / 0.6).powi(2))
+                .sqrt();
                 let wall = d - radius_m * (1.0 + 0.25 * coarse) - 0.15 * fine;
                 let floor = center[2] - FLOOR_BELOW_AXIS_M + 0.08 * fine - q[2];
                 wall.max(floor)
@@ -73,7 +84,9 @@ impl Piece {
 
 pub(crate) fn generate(seed: u64) -> WorldParts {
     let mut rng = Rng::new(combine(seed, 0xca5e));
-    let mut graph: RoadGraph = jittered_grid(&mut rng, 6, 6, 75.0, 15.0, |x, y| 12.0 * value2(combine(seed, 21), x / 150.0, y / 150.0));
+    let mut graph: RoadGraph = jittered_grid(&mut rng, 6, 6, 75.0, 15.0, |x, y| {
+        12.0 * value2(combine(seed, 21), x / 150.0, y / 150.0)
+    });
     graph.prune(&mut rng, 0.35);
     // Meander every tunnel: lateral and vertical offsets that vanish at the junctions.
     for (e, (a, b, line)) in graph.edges.iter_mut().enumerate() {
@@ -88,7 +101,11 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
                 let envelope = (std::f64::consts::PI * t).sin();
                 let lateral = 9.0 * envelope * value2(key, t * 3.0, 0.5);
                 let vertical = 2.0 * envelope * value2(key, t * 2.0, 7.5);
-                [pa[0] + (pb[0] - pa[0]) * t + nx * lateral, pa[1] + (pb[1] - pa[1]) * t + ny * lateral, pa[2] + (pb[2] - pa[2]) * t + vertical]
+                [
+                    pa[0] + (pb[0] - pa[0]) * t + nx * lateral,
+                    pa[1] + (pb[1] - pa[1]) * t + ny * lateral,
+                    pa[2] + (pb[2] - pa[2]) * t + vertical,
+                ]
             })
             .collect();
     }
@@ -96,22 +113,35 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
     for (_, _, line) in &graph.edges {
         let radius_m = rng.range(2.8, 4.2);
         for w in line.windows(2) {
-            pieces.push(Piece::Tunnel { a: w[0], b: w[1], radius_m });
+            pieces.push(Piece::Tunnel {
+                a: w[0],
+                b: w[1],
+                radius_m,
+            });
         }
     }
     for (n, adjacency) in graph.adjacency().iter().enumerate() {
         if adjacency.len() >= 3 && rng.chance(0.5) {
-            pieces.push(Piece::Chamber { center: graph.nodes[n], radius_m: rng.range(6.5, 11.0) });
+            pieces.push(Piece::Chamber {
+                center: graph.nodes[n],
+                radius_m: rng.range(6.5, 11.0),
+            });
         }
     }
     let objects = surface_nets(seed, &pieces);
-    let (mut x0, mut y0, mut x1, mut y1) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let (mut x0, mut y0, mut x1, mut y1) =
+        (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
     for (_, _, line) in &graph.edges {
         for p in line {
             (x0, y0, x1, y1) = (x0.min(p[0]), y0.min(p[1]), x1.max(p[0]), y1.max(p[1]));
         }
     }
-    WorldParts { terrain: None, objects, graph, extent_m: [x0 - 30.0, y0 - 30.0, x1 + 30.0, y1 + 30.0] }
+    WorldParts {
+        terrain: None,
+        objects,
+        graph,
+        extent_m: [x0 - 30.0, y0 - 30.0, x1 + 30.0, y1 + 30.0],
+    }
 }
 
 type Key = (i32, i32, i32);
@@ -123,7 +153,8 @@ fn surface_nets(seed: u64, pieces: &[Piece]) -> Mesh {
     for (index, piece) in pieces.iter().enumerate() {
         let (lo, hi) = piece.bounds();
         // A block also samples the first lattice plane of its upper neighbours, hence the extra block.
-        let range = |axis: usize| ((lo[axis] / block_m).floor() as i32 - 1)..=((hi[axis] / block_m).floor() as i32);
+        let range =
+            |axis: usize| ((lo[axis] / block_m).floor() as i32 - 1)..=((hi[axis] / block_m).floor() as i32);
         for bz in range(2) {
             for by in range(1) {
                 for bx in range(0) {
@@ -141,7 +172,11 @@ fn surface_nets(seed: u64, pieces: &[Piece]) -> Mesh {
         .map(|(key, list)| {
             let mut values = vec![0.0f32; side * side * side];
             for (i, value) in values.iter_mut().enumerate() {
-                let (lx, ly, lz) = ((i % side) as i32, ((i / side) % side) as i32, (i / (side * side)) as i32);
+                let (lx, ly, lz) = (
+                    (i % side) as i32,
+                    ((i / side) % side) as i32,
+                    (i / (side * side)) as i32,
+                );
                 let q = [
                     f64::from(key.0 * BLOCK + lx) * VOXEL_M,
                     f64::from(key.1 * BLOCK + ly) * VOXEL_M,
@@ -149,7 +184,10 @@ fn surface_nets(seed: u64, pieces: &[Piece]) -> Mesh {
                 ];
                 let coarse = fbm3(coarse_seed, q[0] / 7.0, q[1] / 7.0, q[2] / 7.0, 2, 0.5);
                 let fine = value3(fine_seed, q[0] / 1.3, q[1] / 1.3, q[2] / 1.3);
-                *value = list.iter().map(|&p| pieces[p as usize].sdf(q, coarse, fine)).fold(4.0, f64::min) as f32;
+                *value = list
+                    .iter()
+                    .map(|&p| pieces[p as usize].sdf(q, coarse, fine))
+                    .fold(4.0, f64::min) as f32;
             }
             (key, values)
         })
@@ -157,8 +195,21 @@ fn surface_nets(seed: u64, pieces: &[Piece]) -> Mesh {
     blocks.sort_by_key(|(key, _)| *key);
 
     // One vertex per cell that the surface crosses, at the mean of its edge crossings.
-    let corner = |c: usize| ((c & 1) as usize, ((c >> 1) & 1) as usize, ((c >> 2) & 1) as usize);
-    const EDGES: [(usize, usize); 12] = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)];
+    let corner = |c: usize| (c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    const EDGES: [(usize, usize); 12] = [
+        (0, 1),
+        (2, 3),
+        (4, 5),
+        (6, 7),
+        (0, 2),
+        (1, 3),
+        (4, 6),
+        (5, 7),
+        (0, 4),
+        (1, 5),
+        (2, 6),
+        (3, 7),
+    ];
     let mut vertex_of: HashMap<Key, u32> = HashMap::new();
     let mut vertices: Vec<V3> = Vec::new();
     for (key, values) in &blocks {
@@ -185,10 +236,18 @@ fn surface_nets(seed: u64, pieces: &[Piece]) -> Mesh {
                             n += 1.0;
                         }
                     }
-                    let cell = (key.0 * BLOCK + lx as i32, key.1 * BLOCK + ly as i32, key.2 * BLOCK + lz as i32);
+                    let cell = (
+                        key.0 * BLOCK + lx as i32,
+                        key.1 * BLOCK + ly as i32,
+                        key.2 * BLOCK + lz as i32,
+                    );
                     let local = sum * (1.0 / n);
                     let h = VOXEL_M as f32;
-                    vertices.push(V3::new((cell.0 as f32 + local.x) * h, (cell.1 as f32 + local.y) * h, (cell.2 as f32 + local.z) * h));
+                    vertices.push(V3::new(
+                        (cell.0 as f32 + local.x) * h,
+                        (cell.1 as f32 + local.y) * h,
+                        (cell.2 as f32 + local.z) * h,
+                    ));
                     vertex_of.insert(cell, (vertices.len() - 1) as u32);
                 }
             }
@@ -204,11 +263,24 @@ fn surface_nets(seed: u64, pieces: &[Piece]) -> Mesh {
             for ly in 0..BLOCK as usize {
                 for lx in 0..BLOCK as usize {
                     let here = at(lx, ly, lz) < 0.0;
-                    let p = (key.0 * BLOCK + lx as i32, key.1 * BLOCK + ly as i32, key.2 * BLOCK + lz as i32);
+                    let p = (
+                        key.0 * BLOCK + lx as i32,
+                        key.1 * BLOCK + ly as i32,
+                        key.2 * BLOCK + lz as i32,
+                    );
                     let neighbours = [
-                        (at(lx + 1, ly, lz), [(0, 0, 0), (0, -1, 0), (0, -1, -1), (0, 0, -1)]),
-                        (at(lx, ly + 1, lz), [(0, 0, 0), (-1, 0, 0), (-1, 0, -1), (0, 0, -1)]),
-                        (at(lx, ly, lz + 1), [(0, 0, 0), (-1, 0, 0), (-1, -1, 0), (0, -1, 0)]),
+                        (
+                            at(lx + 1, ly, lz),
+                            [(0, 0, 0), (0, -1, 0), (0, -1, -1), (0, 0, -1)],
+                        ),
+                        (
+                            at(lx, ly + 1, lz),
+                            [(0, 0, 0), (-1, 0, 0), (-1, 0, -1), (0, 0, -1)],
+                        ),
+                        (
+                            at(lx, ly, lz + 1),
+                            [(0, 0, 0), (-1, 0, 0), (-1, -1, 0), (0, -1, 0)],
+                        ),
                     ];
                     for (value, cells) in neighbours {
                         if (value < 0.0) == here {
@@ -216,7 +288,11 @@ fn surface_nets(seed: u64, pieces: &[Piece]) -> Mesh {
                         }
                         let quad: Option<Vec<V3>> = cells
                             .iter()
-                            .map(|d| vertex_of.get(&(p.0 + d.0, p.1 + d.1, p.2 + d.2)).map(|&i| vertices[i as usize]))
+                            .map(|d| {
+                                vertex_of
+                                    .get(&(p.0 + d.0, p.1 + d.1, p.2 + d.2))
+                                    .map(|&i| vertices[i as usize])
+                            })
                             .collect();
                         if let Some(q) = quad {
                             mesh.push(q[0], q[1], q[2], material);

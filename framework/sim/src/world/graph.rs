@@ -32,7 +32,11 @@ impl RoadGraph {
     /// Edge `e`'s centre line walked away from `node`.
     pub fn line_from(&self, e: usize, node: usize) -> Vec<[f64; 3]> {
         let (a, _, line) = &self.edges[e];
-        if *a == node { line.clone() } else { line.iter().rev().copied().collect() }
+        if *a == node {
+            line.clone()
+        } else {
+            line.iter().rev().copied().collect()
+        }
     }
 
     /// Length of edge `e` in metres.
@@ -108,13 +112,24 @@ pub fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 pub fn segment_distance_xy(x: f64, y: f64, a: [f64; 3], b: [f64; 3]) -> f64 {
     let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
     let len2 = dx * dx + dy * dy;
-    let t = if len2 > 0.0 { (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if len2 > 0.0 {
+        (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     ((x - a[0] - t * dx).powi(2) + (y - a[1] - t * dy).powi(2)).sqrt()
 }
 
 /// A jittered `nx` × `ny` grid of nodes with spacing `spacing_m` centred on the origin, joined to their
 /// four neighbours by straight edges (two-point centre lines).
-pub fn jittered_grid(rng: &mut Rng, nx: usize, ny: usize, spacing_m: f64, jitter_m: f64, z: impl Fn(f64, f64) -> f64) -> RoadGraph {
+pub fn jittered_grid(
+    rng: &mut Rng,
+    nx: usize,
+    ny: usize,
+    spacing_m: f64,
+    jitter_m: f64,
+    z: impl Fn(f64, f64) -> f64,
+) -> RoadGraph {
     let mut graph = RoadGraph::default();
     for j in 0..ny {
         for i in 0..nx {
@@ -127,10 +142,14 @@ pub fn jittered_grid(rng: &mut Rng, nx: usize, ny: usize, spacing_m: f64, jitter
         for i in 0..nx {
             let n = j * nx + i;
             if i + 1 < nx {
-                graph.edges.push((n, n + 1, vec![graph.nodes[n], graph.nodes[n + 1]]));
+                graph
+                    .edges
+                    .push((n, n + 1, vec![graph.nodes[n], graph.nodes[n + 1]]));
             }
             if j + 1 < ny {
-                graph.edges.push((n, n + nx, vec![graph.nodes[n], graph.nodes[n + nx]]));
+                graph
+                    .edges
+                    .push((n, n + nx, vec![graph.nodes[n], graph.nodes[n + nx]]));
             }
         }
     }

@@ -57,10 +57,13 @@ impl FromStr for WorldKind {
     type Err = SimError;
 
     fn from_str(name: &str) -> Result<Self, SimError> {
-        Self::ALL.into_iter().find(|k| k.name().eq_ignore_ascii_case(name.trim())).ok_or_else(|| SimError::UnknownWorld {
-            name: name.to_owned(),
-            known: Self::ALL.iter().map(|k| k.name().to_owned()).collect(),
-        })
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name().eq_ignore_ascii_case(name.trim()))
+            .ok_or_else(|| SimError::UnknownWorld {
+                name: name.to_owned(),
+                known: Self::ALL.iter().map(|k| k.name().to_owned()).collect(),
+            })
     }
 }
 
@@ -98,7 +101,10 @@ impl Material {
 
     /// The material with index `index` (unknown indices read as rock).
     pub fn from_index(index: u8) -> Self {
-        Self::ALL.get(usize::from(index)).copied().unwrap_or(Material::Rock)
+        Self::ALL
+            .get(usize::from(index))
+            .copied()
+            .unwrap_or(Material::Rock)
     }
 
     /// Diffuse reflectivity at 905 nm, roughly after published LiDAR reflectivity tables.
@@ -152,7 +158,8 @@ impl fmt::Debug for World {
 
 /// Recently used worlds, most recent last; a few are kept alive so that robots, tools and tests that
 /// ask again do not pay for generation twice.
-static CACHE: Mutex<Vec<((WorldKind, u64), Arc<World>)>> = Mutex::new(Vec::new());
+type CacheEntry = ((WorldKind, u64), Arc<World>);
+static CACHE: Mutex<Vec<CacheEntry>> = Mutex::new(Vec::new());
 const CACHED_WORLDS: usize = 3;
 
 impl World {
@@ -163,7 +170,14 @@ impl World {
             WorldKind::Cave => cave::generate(seed),
             WorldKind::Urban => urban::generate(seed),
         };
-        Self { kind, seed, terrain: parts.terrain, objects: Bvh::build(parts.objects), graph: parts.graph, extent_m: parts.extent_m }
+        Self {
+            kind,
+            seed,
+            terrain: parts.terrain,
+            objects: Bvh::build(parts.objects),
+            graph: parts.graph,
+            extent_m: parts.extent_m,
+        }
     }
 
     /// The world of `kind` for `seed`, shared with every other holder in the process (robots of one
@@ -216,12 +230,20 @@ impl World {
         {
             t_best = t;
             let p = ray.at(t);
-            hit = Some(Hit { range_m: t, normal: tri.normal(), material: Material::from_index(terrain.material_at(p.x, p.y)) });
+            hit = Some(Hit {
+                range_m: t,
+                normal: tri.normal(),
+                material: Material::from_index(terrain.material_at(p.x, p.y)),
+            });
         }
         if let Some(object) = self.objects.cast(ray, t_best) {
             let mesh = self.objects.mesh();
             let i = object.triangle as usize;
-            hit = Some(Hit { range_m: object.t, normal: mesh.tris[i].normal(), material: Material::from_index(mesh.materials[i]) });
+            hit = Some(Hit {
+                range_m: object.t,
+                normal: mesh.tris[i].normal(),
+                material: Material::from_index(mesh.materials[i]),
+            });
         }
         hit
     }
@@ -229,14 +251,21 @@ impl World {
     /// Height of the first surface straight below (x, y, z_from_m), searching `depth_m` down.
     pub fn ground_below(&self, x: f64, y: f64, z_from_m: f64, depth_m: f64) -> Option<f64> {
         let ray = Ray::new(V3::from_f64(x, y, z_from_m), V3::new(0.0, 0.0, -1.0));
-        self.cast(&ray, depth_m as f32).map(|hit| z_from_m - f64::from(hit.range_m))
+        self.cast(&ray, depth_m as f32)
+            .map(|hit| z_from_m - f64::from(hit.range_m))
     }
 
     /// Distance from `p` to the nearest surface (terrain or object), up to `max_m`. Independent of the
     /// ray caster: it uses closest-point queries, so tests can check rays against it.
     pub fn distance_to_surface(&self, p: V3, max_m: f32) -> f32 {
-        let terrain = self.terrain.as_ref().map_or(f32::INFINITY, |t| t.distance_to_surface(p, 2));
-        let objects = self.objects.nearest(p, max_m.min(terrain)).map_or(f32::INFINITY, |(d, _)| d);
+        let terrain = self
+            .terrain
+            .as_ref()
+            .map_or(f32::INFINITY, |t| t.distance_to_surface(p, 2));
+        let objects = self
+            .objects
+            .nearest(p, max_m.min(terrain))
+            .map_or(f32::INFINITY, |(d, _)| d);
         terrain.min(objects).min(max_m)
     }
 

@@ -7,10 +7,10 @@
 //! buried. Traverse lanes (the route graph) are kept clear of rocks and of large craters, as a rover
 //! planner would; only a few boulders stand tall.
 
+use super::Material;
 use super::WorldParts;
 use super::graph::{RoadGraph, jittered_grid, segment_distance_xy};
 use super::shapes::add_blob;
-use super::Material;
 use crate::bvh::Mesh;
 use crate::geometry::V3;
 use crate::heightfield::HeightField;
@@ -59,12 +59,25 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
     // Two diagonal lanes give crossings at odd angles.
     let n = 7;
     for (a, b) in [(n + 1, 2 * n + 2), (4 * n + 4, 5 * n + 3)] {
-        if !graph.edges.iter().any(|(x, y, _)| (*x == a && *y == b) || (*x == b && *y == a)) {
+        if !graph
+            .edges
+            .iter()
+            .any(|(x, y, _)| (*x == a && *y == b) || (*x == b && *y == a))
+        {
             graph.edges.push((a, b, vec![graph.nodes[a], graph.nodes[b]]));
         }
     }
-    let lanes: Vec<([f64; 3], [f64; 3])> = graph.edges.iter().map(|(_, _, l)| (l[0], l[l.len() - 1])).collect();
-    let lane_distance = |x: f64, y: f64| lanes.iter().map(|&(a, b)| segment_distance_xy(x, y, a, b)).fold(f64::INFINITY, f64::min);
+    let lanes: Vec<([f64; 3], [f64; 3])> = graph
+        .edges
+        .iter()
+        .map(|(_, _, l)| (l[0], l[l.len() - 1]))
+        .collect();
+    let lane_distance = |x: f64, y: f64| {
+        lanes
+            .iter()
+            .map(|&(a, b)| segment_distance_xy(x, y, a, b))
+            .fold(f64::INFINITY, f64::min)
+    };
 
     let mut craters = Vec::new();
     while craters.len() < 420 {
@@ -74,11 +87,18 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
             continue;
         }
         let depth_m = radius_m * rng.range(0.1, 0.28);
-        craters.push(Crater { x, y, radius_m, depth_m, rim_m: depth_m * rng.range(0.2, 0.4) });
+        craters.push(Crater {
+            x,
+            y,
+            radius_m,
+            depth_m,
+            rim_m: depth_m * rng.range(0.2, 0.4),
+        });
     }
 
     let origin = -HALF_M;
-    let mut heights = HeightField::sample_vertices(origin, origin, CELL_M, CELLS, |x, y| base_height(seed, x, y));
+    let mut heights =
+        HeightField::sample_vertices(origin, origin, CELL_M, CELLS, |x, y| base_height(seed, x, y));
     let side = CELLS + 1;
     for crater in &craters {
         let reach = crater.radius_m * 3.0;
@@ -94,23 +114,55 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
             }
         }
     }
-    let terrain = HeightField::new(origin, origin, CELL_M, CELLS, heights, vec![Material::Regolith as u8; CELLS * CELLS]);
+    let terrain = HeightField::new(
+        origin,
+        origin,
+        CELL_M,
+        CELLS,
+        heights,
+        vec![Material::Regolith as u8; CELLS * CELLS],
+    );
 
     let mut objects = Mesh::default();
     let mut placed = 0;
     while placed < 9000 {
         let boulder = placed < 40;
-        let radius_m = if boulder { rng.range(2.0, 4.5) } else { rng.power_law(0.15, 2.0, 2.6) };
-        let (x, y) = (rng.range(-HALF_M + 5.0, HALF_M - 5.0), rng.range(-HALF_M + 5.0, HALF_M - 5.0));
+        let radius_m = if boulder {
+            rng.range(2.0, 4.5)
+        } else {
+            rng.power_law(0.15, 2.0, 2.6)
+        };
+        let (x, y) = (
+            rng.range(-HALF_M + 5.0, HALF_M - 5.0),
+            rng.range(-HALF_M + 5.0, HALF_M - 5.0),
+        );
         if lane_distance(x, y) < radius_m + 3.5 {
             continue;
         }
         let ground = terrain.height_at(x, y);
         let flatten = rng.range(0.5, 0.9);
-        let radii = V3::from_f64(radius_m * rng.range(0.7, 1.3), radius_m * rng.range(0.7, 1.3), radius_m * flatten);
+        let radii = V3::from_f64(
+            radius_m * rng.range(0.7, 1.3),
+            radius_m * rng.range(0.7, 1.3),
+            radius_m * flatten,
+        );
         let center = V3::from_f64(x, y, ground + radius_m * flatten * rng.range(0.1, 0.5));
-        let subdivisions = if radius_m < 0.5 { 0 } else if radius_m < 1.5 { 1 } else { 2 };
-        add_blob(&mut objects, &mut rng, center, radii, subdivisions, 0.22, Material::Rock as u8);
+        let subdivisions = if radius_m < 0.5 {
+            0
+        } else if radius_m < 1.5 {
+            1
+        } else {
+            2
+        };
+        add_blob(
+            &mut objects,
+            &mut rng,
+            center,
+            radii,
+            subdivisions,
+            0.22,
+            Material::Rock as u8,
+        );
         placed += 1;
     }
 
@@ -120,7 +172,12 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
     for (a, b, line) in &mut graph.edges {
         *line = densify(&terrain, graph.nodes[*a], graph.nodes[*b]);
     }
-    WorldParts { terrain: Some(terrain), objects, graph, extent_m: [-HALF_M, -HALF_M, HALF_M, HALF_M] }
+    WorldParts {
+        terrain: Some(terrain),
+        objects,
+        graph,
+        extent_m: [-HALF_M, -HALF_M, HALF_M, HALF_M],
+    }
 }
 
 /// A straight lane from `a` to `b` sampled every 5 m, its reference height 3 m above the terrain.

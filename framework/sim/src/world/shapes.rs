@@ -15,9 +15,22 @@ pub fn add_box(mesh: &mut Mesh, center: V3, half: V3, yaw_rad: f32, material: u8
         center + V3::new(c * x - s * y, s * x + c * y, sz * half.z)
     };
     let v: Vec<V3> = (0..8)
-        .map(|i| corner(if i & 1 == 0 { -1.0 } else { 1.0 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -1.0 } else { 1.0 }))
+        .map(|i| {
+            corner(
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            )
+        })
         .collect();
-    let faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+    let faces = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
     for [a, b, c, d] in faces {
         mesh.push(v[a], v[b], v[c], material);
         mesh.push(v[a], v[c], v[d], material);
@@ -32,7 +45,12 @@ pub fn add_prism(mesh: &mut Mesh, base: V3, radius_m: f32, height_m: f32, sides:
     };
     let top = base + V3::new(0.0, 0.0, height_m);
     for k in 0..sides {
-        let (a0, a1, b0, b1) = (ring(k, 0.0), ring(k + 1, 0.0), ring(k, height_m), ring(k + 1, height_m));
+        let (a0, a1, b0, b1) = (
+            ring(k, 0.0),
+            ring(k + 1, 0.0),
+            ring(k, height_m),
+            ring(k + 1, height_m),
+        );
         mesh.push(a0, a1, b1, material);
         mesh.push(a0, b1, b0, material);
         mesh.push(b0, b1, top, material);
@@ -43,17 +61,43 @@ pub fn add_prism(mesh: &mut Mesh, base: V3, radius_m: f32, height_m: f32, sides:
 pub fn icosphere(subdivisions: u32) -> (Vec<V3>, Vec<[usize; 3]>) {
     let t = (1.0 + 5.0f32.sqrt()) / 2.0;
     let mut vertices: Vec<V3> = [
-        (-1.0, t, 0.0), (1.0, t, 0.0), (-1.0, -t, 0.0), (1.0, -t, 0.0),
-        (0.0, -1.0, t), (0.0, 1.0, t), (0.0, -1.0, -t), (0.0, 1.0, -t),
-        (t, 0.0, -1.0), (t, 0.0, 1.0), (-t, 0.0, -1.0), (-t, 0.0, 1.0),
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
     ]
     .iter()
     .map(|&(x, y, z)| V3::new(x, y, z).normalized())
     .collect();
     let mut faces = vec![
-        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2],
-        [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5],
-        [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
     ];
     for _ in 0..subdivisions {
         let mut midpoints: HashMap<(usize, usize), usize> = HashMap::new();
@@ -77,7 +121,15 @@ pub fn icosphere(subdivisions: u32) -> (Vec<V3>, Vec<[usize; 3]>) {
 
 /// Adds an irregular rock or blob: an icosphere with radii `radii`, each vertex pushed in or out by up
 /// to `roughness` of its radius, turned by a random yaw.
-pub fn add_blob(mesh: &mut Mesh, rng: &mut Rng, center: V3, radii: V3, subdivisions: u32, roughness: f32, material: u8) {
+pub fn add_blob(
+    mesh: &mut Mesh,
+    rng: &mut Rng,
+    center: V3,
+    radii: V3,
+    subdivisions: u32,
+    roughness: f32,
+    material: u8,
+) {
     let (vertices, faces) = icosphere(subdivisions);
     let yaw = rng.range(0.0, std::f64::consts::TAU) as f32;
     let (s, c) = yaw.sin_cos();

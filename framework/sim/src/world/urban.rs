@@ -2,11 +2,11 @@
 //! blocks of box buildings (some with set-back upper storeys), street poles, parked cars and trees.
 //! Street spacing and building heights are drawn per seed; intersections stay clear of clutter.
 
+use super::Material;
 use super::WorldParts;
 use super::graph::RoadGraph;
 use super::planetary::densify;
 use super::shapes::{add_blob, add_box, add_prism};
-use super::Material;
 use crate::bvh::Mesh;
 use crate::geometry::V3;
 use crate::heightfield::HeightField;
@@ -42,7 +42,8 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
     let street_distance = |x: f64, y: f64| {
         let dx = xs.iter().map(|s| (x - s).abs()).fold(f64::INFINITY, f64::min);
         let dy = ys.iter().map(|s| (y - s).abs()).fold(f64::INFINITY, f64::min);
-        let inside = x > xs[0] - 1.0 && x < xs[xs.len() - 1] + 1.0 && y > ys[0] - 1.0 && y < ys[ys.len() - 1] + 1.0;
+        let inside =
+            x > xs[0] - 1.0 && x < xs[xs.len() - 1] + 1.0 && y > ys[0] - 1.0 && y < ys[ys.len() - 1] + 1.0;
         if inside { dx.min(dy) } else { f64::INFINITY }
     };
     let origin = -HALF_M;
@@ -52,7 +53,10 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
     });
     let materials = (0..CELLS * CELLS)
         .map(|i| {
-            let (x, y) = (origin + ((i % CELLS) as f64 + 0.5) * CELL_M, origin + ((i / CELLS) as f64 + 0.5) * CELL_M);
+            let (x, y) = (
+                origin + ((i % CELLS) as f64 + 0.5) * CELL_M,
+                origin + ((i / CELLS) as f64 + 0.5) * CELL_M,
+            );
             let d = street_distance(x, y);
             (if d <= ROAD_HALF_M {
                 Material::Asphalt
@@ -94,8 +98,14 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
     // Buildings: each block is cut into lots along x; each lot gets a box, sometimes with a set-back.
     for bj in 0..ys.len() - 1 {
         for bi in 0..nx - 1 {
-            let (x0, x1) = (xs[bi] + SIDEWALK_OUTER_M + 1.0, xs[bi + 1] - SIDEWALK_OUTER_M - 1.0);
-            let (y0, y1) = (ys[bj] + SIDEWALK_OUTER_M + 1.0, ys[bj + 1] - SIDEWALK_OUTER_M - 1.0);
+            let (x0, x1) = (
+                xs[bi] + SIDEWALK_OUTER_M + 1.0,
+                xs[bi + 1] - SIDEWALK_OUTER_M - 1.0,
+            );
+            let (y0, y1) = (
+                ys[bj] + SIDEWALK_OUTER_M + 1.0,
+                ys[bj + 1] - SIDEWALK_OUTER_M - 1.0,
+            );
             if rng.chance(0.08) {
                 continue; // An open lot or park.
             }
@@ -111,11 +121,23 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
                     }
                     let base = ground(cx, cy) - 2.0;
                     let height = rng.power_law(6.0, 60.0, 2.0);
-                    add_box(&mut objects, V3::from_f64(cx, cy, base + height / 2.0 + 1.0), V3::from_f64(hx, hy, height / 2.0 + 1.0), 0.0, Material::Facade as u8);
+                    add_box(
+                        &mut objects,
+                        V3::from_f64(cx, cy, base + height / 2.0 + 1.0),
+                        V3::from_f64(hx, hy, height / 2.0 + 1.0),
+                        0.0,
+                        Material::Facade as u8,
+                    );
                     if height > 15.0 && rng.chance(0.5) {
                         let upper = rng.range(4.0, 20.0);
                         let top = base + height + 2.0;
-                        add_box(&mut objects, V3::from_f64(cx, cy, top + upper / 2.0), V3::from_f64(hx * 0.6, hy * 0.6, upper / 2.0), 0.0, Material::Facade as u8);
+                        add_box(
+                            &mut objects,
+                            V3::from_f64(cx, cy, top + upper / 2.0),
+                            V3::from_f64(hx * 0.6, hy * 0.6, upper / 2.0),
+                            0.0,
+                            Material::Facade as u8,
+                        );
                     }
                 }
                 x += width + rng.range(1.0, 6.0);
@@ -134,16 +156,38 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
             let mut s = 14.0 + rng.range(0.0, 10.0);
             while s < length - 14.0 {
                 let (x, y) = at(s, 7.0);
-                add_prism(&mut objects, V3::from_f64(x, y, ground(x, y)), 0.12, rng.range(6.0, 8.5) as f32, 8, Material::Metal as u8);
+                add_prism(
+                    &mut objects,
+                    V3::from_f64(x, y, ground(x, y)),
+                    0.12,
+                    rng.range(6.0, 8.5) as f32,
+                    8,
+                    Material::Metal as u8,
+                );
                 s += rng.range(22.0, 32.0);
             }
             let mut s = 18.0 + rng.range(0.0, 10.0);
             while s < length - 18.0 {
                 let (x, y) = at(s, 8.3);
                 let z = ground(x, y) + 0.15;
-                add_prism(&mut objects, V3::from_f64(x, y, z), 0.18, 3.2, 6, Material::Bark as u8);
+                add_prism(
+                    &mut objects,
+                    V3::from_f64(x, y, z),
+                    0.18,
+                    3.2,
+                    6,
+                    Material::Bark as u8,
+                );
                 let r = rng.range(1.6, 2.6);
-                add_blob(&mut objects, &mut rng, V3::from_f64(x, y, z + 3.0 + r * 0.8), V3::from_f64(r, r, r * 0.85), 1, 0.25, Material::Foliage as u8);
+                add_blob(
+                    &mut objects,
+                    &mut rng,
+                    V3::from_f64(x, y, z + 3.0 + r * 0.8),
+                    V3::from_f64(r, r, r * 0.85),
+                    1,
+                    0.25,
+                    Material::Foliage as u8,
+                );
                 s += rng.range(15.0, 30.0);
             }
             let mut s = 15.0;
@@ -152,13 +196,35 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
                     let (x, y) = at(s + 2.3, 4.3);
                     let z = ground(x, y);
                     let car_yaw = yaw + rng.range(-0.04, 0.04) as f32;
-                    add_box(&mut objects, V3::from_f64(x, y, z + 0.7), V3::new(2.2, 0.9, 0.4), car_yaw, Material::CarPaint as u8);
-                    add_box(&mut objects, V3::from_f64(x, y, z + 1.35), V3::new(1.2, 0.8, 0.3), car_yaw, Material::CarPaint as u8);
+                    add_box(
+                        &mut objects,
+                        V3::from_f64(x, y, z + 0.7),
+                        V3::new(2.2, 0.9, 0.4),
+                        car_yaw,
+                        Material::CarPaint as u8,
+                    );
+                    add_box(
+                        &mut objects,
+                        V3::from_f64(x, y, z + 1.35),
+                        V3::new(1.2, 0.8, 0.3),
+                        car_yaw,
+                        Material::CarPaint as u8,
+                    );
                 }
                 s += rng.range(5.2, 7.0);
             }
         }
     }
-    let extent = [xs[0] - 60.0, ys[0] - 60.0, xs[nx - 1] + 60.0, ys[ys.len() - 1] + 60.0];
-    WorldParts { terrain: Some(terrain), objects, graph, extent_m: extent }
+    let extent = [
+        xs[0] - 60.0,
+        ys[0] - 60.0,
+        xs[nx - 1] + 60.0,
+        ys[ys.len() - 1] + 60.0,
+    ];
+    WorldParts {
+        terrain: Some(terrain),
+        objects,
+        graph,
+        extent_m: extent,
+    }
 }

@@ -44,11 +44,19 @@ impl Grid {
         for (i, p) in points.iter().enumerate() {
             cells.entry(Self::key(p, cell_m)).or_default().push(i);
         }
-        Self { cell_m, cells, points }
+        Self {
+            cell_m,
+            cells,
+            points,
+        }
     }
 
     fn key(p: &Point3<f64>, cell_m: f64) -> (i64, i64, i64) {
-        ((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64, (p.z / cell_m).floor() as i64)
+        (
+            (p.x / cell_m).floor() as i64,
+            (p.y / cell_m).floor() as i64,
+            (p.z / cell_m).floor() as i64,
+        )
     }
 
     /// Indices of points within `radius_m` (≤ cell size) of `p`.
@@ -59,7 +67,11 @@ impl Grid {
             for dy in -1..=1 {
                 for dx in -1..=1 {
                     if let Some(list) = self.cells.get(&(x + dx, y + dy, z + dz)) {
-                        found.extend(list.iter().copied().filter(|&i| (self.points[i] - p).norm() <= radius_m));
+                        found.extend(
+                            list.iter()
+                                .copied()
+                                .filter(|&i| (self.points[i] - p).norm() <= radius_m),
+                        );
                     }
                 }
             }
@@ -72,10 +84,19 @@ impl Grid {
 pub fn downsample(points: &[Point3<f64>], voxel_m: f64) -> Vec<Point3<f64>> {
     let mut seen = HashMap::new();
     for p in points {
-        seen.entry(((p.x / voxel_m).floor() as i64, (p.y / voxel_m).floor() as i64, (p.z / voxel_m).floor() as i64)).or_insert(*p);
+        seen.entry((
+            (p.x / voxel_m).floor() as i64,
+            (p.y / voxel_m).floor() as i64,
+            (p.z / voxel_m).floor() as i64,
+        ))
+        .or_insert(*p);
     }
     let mut out: Vec<Point3<f64>> = seen.into_values().collect();
-    out.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)).then(a.z.total_cmp(&b.z)));
+    out.sort_by(|a, b| {
+        a.x.total_cmp(&b.x)
+            .then(a.y.total_cmp(&b.y))
+            .then(a.z.total_cmp(&b.z))
+    });
     out
 }
 
@@ -85,7 +106,12 @@ pub fn point_to_plane(target: &[Point3<f64>], source: &[Point3<f64>]) -> Pose {
 }
 
 /// [`point_to_plane`] with the target voxel size and the normal-estimation radius given.
-pub fn point_to_plane_with(target: &[Point3<f64>], source: &[Point3<f64>], voxel_m: f64, normal_radius_m: f64) -> Pose {
+pub fn point_to_plane_with(
+    target: &[Point3<f64>],
+    source: &[Point3<f64>],
+    voxel_m: f64,
+    normal_radius_m: f64,
+) -> Pose {
     let target = downsample(target, voxel_m);
     let source = downsample(source, 0.4);
     let grid = Grid::new(target, normal_radius_m.max(1.0));
@@ -99,18 +125,28 @@ pub fn point_to_plane_with(target: &[Point3<f64>], source: &[Point3<f64>], voxel
                 return None;
             }
             let mean = near.iter().map(|&i| grid.points[i].coords).sum::<Vector3<f64>>() / near.len() as f64;
-            let cov = near.iter().map(|&i| (grid.points[i].coords - mean) * (grid.points[i].coords - mean).transpose()).sum::<Matrix3<f64>>();
+            let cov = near
+                .iter()
+                .map(|&i| (grid.points[i].coords - mean) * (grid.points[i].coords - mean).transpose())
+                .sum::<Matrix3<f64>>();
             let eig = SymmetricEigen::new(cov / near.len() as f64);
             let k = eig.eigenvalues.imin();
             let mut sorted: Vec<f64> = eig.eigenvalues.iter().copied().collect();
             sorted.sort_by(f64::total_cmp);
             // Planar (thin) but not linear: neighbourhoods from a single scan ring give no normal.
-            (sorted[0] < 0.15 * sorted[1] && sorted[1] > 0.1 * sorted[2]).then(|| eig.eigenvectors.column(k).into_owned())
+            (sorted[0] < 0.15 * sorted[1] && sorted[1] > 0.1 * sorted[2])
+                .then(|| eig.eigenvectors.column(k).into_owned())
         })
         .collect();
     let mut estimate = Pose::identity();
     for iteration in 0..60 {
-        let max_distance = if iteration < 10 { 1.0 } else if iteration < 20 { 0.5 } else { 0.25 };
+        let max_distance = if iteration < 10 {
+            1.0
+        } else if iteration < 20 {
+            0.5
+        } else {
+            0.25
+        };
         let (mut h, mut g) = (Matrix6::zeros(), Vector6::zeros());
         for p in &source {
             let moved = estimate * p;
@@ -129,7 +165,9 @@ pub fn point_to_plane_with(target: &[Point3<f64>], source: &[Point3<f64>], voxel
             h += j * j.transpose();
             g += j * residual;
         }
-        let Some(step) = h.cholesky().map(|c| c.solve(&(-g))) else { break };
+        let Some(step) = h.cholesky().map(|c| c.solve(&(-g))) else {
+            break;
+        };
         let delta = Pose::from_parts(
             Vector3::new(step[0], step[1], step[2]).into(),
             UnitQuaternion::from_scaled_axis(Vector3::new(step[3], step[4], step[5])),
