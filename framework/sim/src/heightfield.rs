@@ -3,7 +3,7 @@
 //! Tevs, Ihrke and Seidel, I3D 2008). Each cell is two triangles split along its (0,0)–(1,1) diagonal,
 //! exactly the surface [`HeightField::height_at`] interpolates, so rays and queries agree.
 
-use crate::geometry::{Ray, Tri, V3};
+use crate::geometry::{Ray, Tri, V3, fast_max, fast_min};
 
 /// A square height field of `cells` × `cells` cells (a power of two), `cell_m` metres each.
 #[derive(Clone, Debug)]
@@ -221,10 +221,10 @@ impl HeightField {
                 } * size;
             let tx = (next_x - ray.origin.x) * ray.inv_dir.x;
             let ty = (next_y - ray.origin.y) * ray.inv_dir.y;
-            let t_exit = tx.min(ty).min(t_end).max(t + NUDGE);
+            let t_exit = fast_max(fast_min(fast_min(tx, ty), t_end), t + NUDGE);
             let z_max = self.levels[level][j * per_row + i][1];
             let (z_in, z_out) = (ray.origin.z + ray.dir.z * t, ray.origin.z + ray.dir.z * t_exit);
-            if z_in.min(z_out) > z_max {
+            if fast_min(z_in, z_out) > z_max {
                 // Leave the node; climb when the step also leaves the parent node.
                 let crossing_x = tx <= ty;
                 let (index, forward) = if crossing_x {
