@@ -125,8 +125,14 @@ impl Ray {
         let ty2 = (max.y - self.origin.y) * self.inv_dir.y;
         let tz1 = (min.z - self.origin.z) * self.inv_dir.z;
         let tz2 = (max.z - self.origin.z) * self.inv_dir.z;
-        let t_near = fast_max(fast_max(fast_min(tx1, tx2), fast_min(ty1, ty2)), fast_max(fast_min(tz1, tz2), 0.0));
-        let t_far = fast_min(fast_min(fast_max(tx1, tx2), fast_max(ty1, ty2)), fast_min(fast_max(tz1, tz2), t_max));
+        let t_near = fast_max(
+            fast_max(fast_min(tx1, tx2), fast_min(ty1, ty2)),
+            fast_max(fast_min(tz1, tz2), 0.0),
+        );
+        let t_far = fast_min(
+            fast_min(fast_max(tx1, tx2), fast_max(ty1, ty2)),
+            fast_min(fast_max(tz1, tz2), t_max),
+        );
         (t_near <= t_far).then_some(t_near)
     }
 }

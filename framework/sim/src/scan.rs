@@ -8,7 +8,7 @@
 //!   weak-return loss when albedo · cos θ · (10 m / r)² falls below 0.002 (inverse-square falloff);
 //! - spurious returns at the configured rate: half are early returns (dust, rain, glare) somewhere
 //!   along the ray, half multipath reflections that appear 0.5–15 m behind the true surface;
-//! - intensity: Lambertian, albedo · cos θ, with 3 % noise.
+//! - intensity: Lambertian, albedo · cos θ, with ±5 % uniform noise.
 
 use rayon::prelude::*;
 use skid_core::{Pose, RawPoint};
@@ -75,7 +75,7 @@ fn cast_ray(
     if rng.chance(noise.dropout_rate) || cos_incidence < 0.05 && rng.chance(0.9) || strength < 0.002 {
         return None;
     }
-    let (mut range, mut intensity) = (range, albedo * cos_incidence * (1.0 + 0.03 * rng.gaussian()));
+    let (mut range, mut intensity) = (range, albedo * cos_incidence * (1.0 + rng.range(-0.05, 0.05)));
     if rng.chance(noise.spurious_rate) {
         range = if rng.chance(0.5) {
             rng.range(sensor.min_range_m, range)
