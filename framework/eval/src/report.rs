@@ -130,7 +130,10 @@ pub fn evaluate(gt: &Trajectory, est: &Trajectory, options: &EvalOptions) -> Res
 
 /// Reads two trajectory files (TUM or KITTI, detected by content) and evaluates the estimate; the
 /// function behind `skid eval --gt GT --est EST`. The numbers equal those of
-/// `evo_ape tum GT EST -a` (or `evo_ape kitti …`) and `evo_rpe … -a` for the same options.
+/// `evo_ape tum GT EST -a` (or `evo_ape kitti …`) and `evo_rpe … -a` for the same options (checked
+/// against evo 1.38.1). KITTI rotations are re-orthonormalised on reading (see `skid_io`) while evo
+/// uses the printed matrices as they are, so on KITTI files relative errors can differ from evo's in
+/// the 8th significant digit.
 pub fn evaluate_files(gt: &Path, est: &Path, options: &EvalOptions) -> Result<EvalReport, EvalError> {
     let gt_trajectory = read_trajectory(gt, options.gt_format)?;
     let est_trajectory = read_trajectory(est, options.est_format)?;

@@ -30,9 +30,11 @@ pub struct RpeOptions {
     /// Step between the two poses of a pair, in `unit`s (evo `--delta`, default 1).
     pub delta: f64,
     pub unit: DeltaUnit,
-    /// Every pair `(i, i + delta)` instead of consecutive, non-overlapping pairs (evo `--all_pairs`);
-    /// frames only.
+    /// Every pair `(i, j)` `delta` apart instead of consecutive, non-overlapping pairs (evo `--all_pairs`).
     pub all_pairs: bool,
+    /// With `all_pairs` in metres, a pair is kept when its path length is within `rel_delta_tol · delta`
+    /// of `delta` (evo's `rel_delta_tol`, 0.1).
+    pub rel_delta_tol: f64,
     /// Measure path lengths on the ground truth instead of the (aligned) estimate (evo
     /// `--pairs_from_reference`); only matters for metres.
     pub pairs_from_reference: bool,
@@ -44,6 +46,7 @@ impl Default for RpeOptions {
             delta: 1.0,
             unit: DeltaUnit::Frames,
             all_pairs: false,
+            rel_delta_tol: 0.1,
             pairs_from_reference: false,
         }
     }
@@ -66,9 +69,11 @@ pub struct RpeResult {
 
 /// The index pairs evo's RPE compares for these options, chosen on `poses`.
 ///
-/// Frames: `(0, d), (d, 2d), …` or, with `all_pairs`, every `(i, i + d)`. Metres: the poses where the
-/// path travelled since the previous chosen pose first reaches `delta` are chosen, starting the count at
-/// pose 0 (so, like evo, pose 0 itself is not chosen), and consecutive chosen poses form the pairs.
+/// Frames: `(0, d), (d, 2d), …` or, with `all_pairs`, every `(i, i + d)`. Metres: pose 0 and then
+/// every pose where the path travelled since the previous chosen pose first reaches `delta` are chosen,
+/// and consecutive chosen poses form the pairs; with `all_pairs`, every pose `i` is paired with the
+/// later pose whose path distance from `i` is nearest to `delta` (the first one on ties), if that is
+/// within `rel_delta_tol · delta`. This is evo 1.38's `filter_pairs_by_path`.
 pub fn rpe_pairs(poses: &[Pose], options: &RpeOptions) -> Result<Vec<(usize, usize)>, EvalError> {
     if !(options.delta.is_finite() && options.delta > 0.0) {
         return Err(EvalError::InvalidOption {
@@ -97,24 +102,56 @@ pub fn rpe_pairs(poses: &[Pose], options: &RpeOptions) -> Result<Vec<(usize, usi
             }
         }
         DeltaUnit::Metres => {
-            if options.all_pairs {
-                return Err(EvalError::InvalidOption {
-                    name: "all_pairs",
-                    reason: "supported for frame deltas only".into(),
-                });
-            }
-            let mut ids = Vec::new();
-            let mut path_m = 0.0;
+            let mut distance_m = Vec::with_capacity(n);
             for i in 0..n {
-                if i > 0 {
-                    path_m += (poses[i].translation.vector - poses[i - 1].translation.vector).norm();
-                }
-                if path_m >= options.delta {
-                    ids.push(i);
-                    path_m = 0.0;
-                }
+                let step = if i == 0 {
+                    0.0
+                } else {
+                    (poses[i].translation.vector - poses[i - 1].translation.vector).norm()
+                };
+                distance_m.push(distance_m.last().map_or(0.0, |d| d + step));
             }
-            ids.windows(2).map(|w| (w[0], w[1])).collect()
+            if options.all_pairs {
+                if !(options.rel_delta_tol.is_finite() && options.rel_delta_tol >= 0.0) {
+                    return Err(EvalError::InvalidOption {
+                        name: "rel_delta_tol",
+                        reason: format!("{} is not a non-negative number", options.rel_delta_tol),
+                    });
+                }
+                let tolerance_m = options.delta * options.rel_delta_tol;
+                (0..n.saturating_sub(1))
+                    .filter_map(|i| {
+                        let later = &distance_m[i + 1..];
+                        let miss = |k: usize| (later[k] - distance_m[i] - options.delta).abs();
+                        // The path length never decreases: the best match is the last pose below
+                        // `delta` (taken at the first pose of its run of equal lengths) or the first at
+                        // or above it.
+                        let split = later.partition_point(|d| d - distance_m[i] < options.delta);
+                        let below = split
+                            .checked_sub(1)
+                            .map(|k| later.partition_point(|d| *d < later[k]));
+                        let above = (split < later.len()).then_some(split);
+                        let best = match (below, above) {
+                            (Some(b), Some(a)) => Some(if miss(a) < miss(b) { a } else { b }),
+                            (b, a) => b.or(a),
+                        }?;
+                        (miss(best) <= tolerance_m).then_some((i, i + 1 + best))
+                    })
+                    .collect()
+            } else {
+                // A running sum restarted at every chosen pose, as evo sums it (not a difference of
+                // cumulative lengths, which can round the other way at a boundary).
+                let mut ids = vec![0];
+                let mut path_m = 0.0;
+                for i in 1..n {
+                    path_m += (poses[i].translation.vector - poses[i - 1].translation.vector).norm();
+                    if path_m >= options.delta {
+                        ids.push(i);
+                        path_m = 0.0;
+                    }
+                }
+                ids.windows(2).map(|w| (w[0], w[1])).collect()
+            }
         }
     };
     if pairs.is_empty() {

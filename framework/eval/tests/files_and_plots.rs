@@ -266,3 +266,77 @@ fn plots_are_written_with_and_without_text() {
         .is_err()
     );
 }
+
+/// evo's statistics (rmse, mean, median, std, min, max) for one run.
+type Stats6 = [f64; 6];
+
+fn assert_stats(name: &str, ours: &skid_eval::ErrorStats, evo: Stats6) {
+    let got = [ours.rmse, ours.mean, ours.median, ours.std, ours.min, ours.max];
+    for (k, (g, e)) in got.iter().zip(evo).enumerate() {
+        assert!(
+            (g - e).abs() <= 1e-9 * e.abs().max(1.0),
+            "{name} statistic {k}: ours {g}, evo {e}"
+        );
+    }
+}
+
+#[test]
+fn equals_evo_on_a_perturbed_kitti_sequence() {
+    // tests/data/evo_gt.tum is every 5th of the first 300 poses of KITTI sequence 07's ground truth;
+    // evo_est.tum a perturbed estimate (rigid offset, slow yaw drift, scale 0.97, noise) whose clock is
+    // 0.25 s early, with 15 % of the poses dropped. The expected numbers were printed by evo 1.38.1
+    // (`evo_ape` / `evo_rpe` with `--save_results`, stats.json), with the command line noted at each.
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let (gt, est) = (data.join("evo_gt.tum"), data.join("evo_est.tum"));
+    let time = skid_eval::TimeAssociation {
+        offset_s: 0.25,
+        ..Default::default()
+    };
+    let se3 = EvalOptions {
+        time,
+        ..EvalOptions::default()
+    };
+    let report = evaluate_files(&gt, &est, &se3).unwrap();
+    assert_eq!(report.associated_poses, 56);
+    // evo_ape tum evo_gt.tum evo_est.tum -a --t_offset 0.25 [-r angle_deg]
+    #[rustfmt::skip]
+    assert_stats("ATE SE(3)", &report.ate_m, [1.5189937201556674, 1.4004765400783252, 1.262243057612901, 0.5882239221271068, 0.38230665909972306, 2.519476391568023]);
+    #[rustfmt::skip]
+    assert_stats("ARE SE(3)", &report.are_deg, [4.167809324847543, 4.01741016505689, 4.070640491055535, 1.1095269865955038, 1.4710738981311484, 6.621484534801801]);
+    // evo_rpe tum evo_gt.tum evo_est.tum -a --t_offset 0.25 [-r angle_deg]
+    #[rustfmt::skip]
+    assert_stats("RPE trans", &report.rpe.translation_m, [0.2997007756187549, 0.27783137701888083, 0.2740288891717484, 0.11238452228966304, 0.03715954264823337, 0.5775422721708018]);
+    #[rustfmt::skip]
+    assert_stats("RPE rot", &report.rpe.rotation_deg, [3.1351489144021243, 2.8764448248943406, 2.7636613472683424, 1.2470861577354573, 0.6484239598565165, 6.202984839816204]);
+
+    // evo_ape tum evo_gt.tum evo_est.tum -as --t_offset 0.25
+    // evo_rpe tum evo_gt.tum evo_est.tum -as --t_offset 0.25 --delta 10 --delta_unit m
+    let sim3 = EvalOptions {
+        alignment: AlignmentKind::Sim3,
+        rpe: skid_eval::RpeOptions {
+            delta: 10.0,
+            unit: skid_eval::DeltaUnit::Metres,
+            ..Default::default()
+        },
+        ..se3.clone()
+    };
+    let report = evaluate_files(&gt, &est, &sim3).unwrap();
+    #[rustfmt::skip]
+    assert_stats("ATE Sim(3)", &report.ate_m, [0.3338790666659717, 0.3054551693032156, 0.2940010815713315, 0.1348049357541642, 0.025778428032617744, 0.6912681239459837]);
+    #[rustfmt::skip]
+    assert_stats("RPE 10 m", &report.rpe.translation_m, [0.6810577478013167, 0.6237034343524818, 0.6130595604107564, 0.2735574561534035, 0.2622842975687252, 1.2792578264749268]);
+
+    // evo_rpe tum evo_gt.tum evo_est.tum -a --t_offset 0.25 --delta 20 --delta_unit m --all_pairs -r angle_deg
+    let all_pairs = EvalOptions {
+        rpe: skid_eval::RpeOptions {
+            delta: 20.0,
+            unit: skid_eval::DeltaUnit::Metres,
+            all_pairs: true,
+            ..Default::default()
+        },
+        ..se3
+    };
+    let report = evaluate_files(&gt, &est, &all_pairs).unwrap();
+    #[rustfmt::skip]
+    assert_stats("RPE 20 m all pairs", &report.rpe.rotation_deg, [3.2556590279842244, 3.029564905437185, 3.299067139832792, 1.192078936244815, 0.5184293829603537, 5.741212135067848]);
+}

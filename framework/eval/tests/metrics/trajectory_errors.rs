@@ -135,24 +135,46 @@ fn rpe_matches_hand_computation() {
     };
     assert_eq!(rpe_pairs(&est, &all).unwrap(), vec![(0, 2), (1, 3)]);
 
-    // Δ = 1 m along the estimate's path (steps 1.1, 1.0198, 0.9): the path first reaches 1 m at pose 1,
-    // then again at pose 2, and pose 3 is only 0.9 m further → one pair (1,2), error 0.2.
+    // Δ = 1 m along the estimate's path (steps 1.1, 1.0198, 0.9): pose 0, then the path reaches 1 m at
+    // pose 1 and again at pose 2, and pose 3 is only 0.9 m further → pairs (0,1), (1,2): errors 0.1, 0.2.
     let metres = RpeOptions {
         unit: DeltaUnit::Metres,
         ..RpeOptions::default()
     };
     let r = rpe(&gt, &est, &metres).unwrap();
-    assert_eq!(r.pair_indices, vec![(1, 2)]);
-    close(r.translation_m.rmse, 0.2, 1e-12);
-    // Along the ground truth (steps of exactly 1 m): poses 1, 2, 3 → pairs (1,2), (2,3).
+    assert_eq!(r.pair_indices, vec![(0, 1), (1, 2)]);
+    close(r.translation_m.rmse, 0.025f64.sqrt(), 1e-12);
+    // Along the ground truth (steps of exactly 1 m): poses 0, 1, 2, 3 → pairs (0,1), (1,2), (2,3).
     let from_gt = RpeOptions {
         pairs_from_reference: true,
         ..metres
     };
     assert_eq!(
         rpe(&gt, &est, &from_gt).unwrap().pair_indices,
-        vec![(1, 2), (2, 3)]
+        vec![(0, 1), (1, 2), (2, 3)]
     );
+    // All pairs 2 m apart along the ground truth (path lengths 0, 1, 2, 3; tolerance 0.2 m): 0 → 2,
+    // 1 → 3; pose 2 has only 1 m left, beyond the tolerance.
+    let all_metres = RpeOptions {
+        delta: 2.0,
+        all_pairs: true,
+        ..from_gt
+    };
+    assert_eq!(
+        rpe(&gt, &est, &all_metres).unwrap().pair_indices,
+        vec![(0, 2), (1, 3)]
+    );
+    // Along the estimate (0, 1.1, 2.1198, 3.0198): 0 → 2 (miss 0.12), 1 → 3 (miss 0.08); 2 has 0.9 left.
+    let all_est = RpeOptions {
+        pairs_from_reference: false,
+        ..all_metres
+    };
+    assert_eq!(rpe_pairs(&est, &all_est).unwrap(), vec![(0, 2), (1, 3)]);
+    let strict = RpeOptions {
+        rel_delta_tol: 0.05,
+        ..all_est
+    };
+    assert_eq!(rpe_pairs(&est, &strict).unwrap(), vec![(1, 3)]);
 }
 
 #[test]
@@ -174,6 +196,7 @@ fn rpe_rejects_bad_options() {
     let options = RpeOptions {
         unit: DeltaUnit::Metres,
         all_pairs: true,
+        rel_delta_tol: -1.0,
         ..RpeOptions::default()
     };
     assert!(matches!(
