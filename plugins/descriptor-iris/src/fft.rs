@@ -90,17 +90,25 @@ impl Fft {
                 );
             }
         }
-        // Combine p interleaved sub-transforms of length m into one of length len = p·m.
+        // Combine p interleaved sub-transforms of length m into one of length len = p·m:
+        // X[k + q1·m] = Σ_q (sub_q[k] · W_len^{q·k}) · W_p^{q·q1}. The indices below stay under n without
+        // a division: q·k·step < p·m·step = n, and W_p^{j} is twiddle j·(n/p) for j = q·q1 mod p.
         let step = self.len / len;
+        let p_step = self.len / p;
         scratch.resize(p, C32::new(0.0, 0.0));
         for k in 0..m {
             for (q, s) in scratch.iter_mut().enumerate() {
-                *s = out[k + q * m] * self.twiddles[(q * k * step) % self.len];
+                *s = out[k + q * m] * self.twiddles[q * k * step];
             }
             for q1 in 0..p {
                 let mut sum = C32::new(0.0, 0.0);
-                for (q, s) in scratch.iter().enumerate() {
-                    sum += *s * self.twiddles[(q * q1 * m * step) % self.len];
+                let mut j = 0;
+                for s in scratch.iter() {
+                    sum += *s * self.twiddles[j * p_step];
+                    j += q1;
+                    if j >= p {
+                        j -= p;
+                    }
                 }
                 out[k + q1 * m] = sum;
             }

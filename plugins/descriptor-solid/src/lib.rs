@@ -16,6 +16,7 @@ mod angle;
 pub mod extract;
 pub mod index;
 mod keytree;
+mod voxel;
 pub mod wire;
 
 #[cfg(test)]
@@ -189,7 +190,7 @@ impl SolidDescriptor {
             )));
         }
         if self.config.voxel_size_m > 0.0 {
-            let kept = skid_geometry::voxel_downsample(points, self.config.voxel_size_m as f32);
+            let kept = voxel::first_point_per_voxel(points, self.config.voxel_size_m as f32);
             self.binning.parts(&kept)
         } else {
             self.binning.parts(points)
