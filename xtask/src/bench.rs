@@ -16,4 +16,19 @@ pub const PROFILES: &[BenchProfile] = &[BenchProfile {
     summary: "read/write throughput of KITTI .bin, PCD, PLY and g2o on the shared data",
     package: "skid-bench",
     binary: "skid-bench-io",
+}, BenchProfile {
+    name: "registration-fine",
+    summary: "fine registration (GICP, VGICP, ICP, plane ICP) on the real scan pair vs small_gicp: ms, iterations, pose",
+    package: "skid-bench",
+    binary: "skid-bench-registration-fine",
+}, BenchProfile {
+    name: "pgo",
+    summary: "pose-graph optimisation vs GTSAM and SE-Sync optima; PCM/GNC with wrong loops; multi-robot PCM sets",
+    package: "skid-bench",
+    binary: "skid-bench-pgo",
+}, BenchProfile {
+    name: "place-recognition",
+    summary: "PR curves, max F1, recall at 100% precision, bytes, extraction/query time of SOLiD, Scan Context, LiDAR-Iris on simulated multi-robot runs",
+    package: "skid-bench",
+    binary: "skid-bench-place-recognition",
 }];

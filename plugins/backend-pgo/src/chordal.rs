@@ -40,7 +40,10 @@ fn solve_linear<const D: usize, const M: usize>(
     if blocks == 0 {
         return Ok(known.to_vec());
     }
-    let pairs: Vec<(usize, usize)> = edges.iter().filter_map(|e| Some((block_of[e.i]?, block_of[e.j]?))).collect();
+    let pairs: Vec<(usize, usize)> = edges
+        .iter()
+        .filter_map(|e| Some((block_of[e.i]?, block_of[e.j]?)))
+        .collect();
     let (mut system, slots) = BlockSystem::<D>::new(blocks, &pairs)?;
     let mut values = vec![0.0; system.value_count()];
     let n = blocks * D;
@@ -67,14 +70,17 @@ fn solve_linear<const D: usize, const M: usize>(
                 }
             }
         }
-        if bi.is_some() && bj.is_some() {
-            if let Some(slot) = next_slot.next() {
-                system.add_off_diagonal(&mut values, slot, &(e.a_i.transpose() * e.a_j * e.weight));
-            }
+        if bi.is_some()
+            && bj.is_some()
+            && let Some(slot) = next_slot.next()
+        {
+            system.add_off_diagonal(&mut values, slot, &(e.a_i.transpose() * e.a_j * e.weight));
         }
     }
     if !system.factorize(&values) || !system.solve_factorized(&mut rhs, M)? {
-        return Err(PgoError::Solver("the chordal relaxation is singular (is the graph connected?)".into()));
+        return Err(PgoError::Solver(
+            "the chordal relaxation is singular (is the graph connected?)".into(),
+        ));
     }
     Ok((0..fixed.len())
         .map(|k| match block_of[k] {
@@ -94,19 +100,38 @@ fn weights_3d(information: &SMatrix<f64, 6, 6>) -> (f64, f64) {
 
 /// Replaces the free poses of a 3D problem by the chordal estimate.
 pub fn chordal_3d(problem: &mut Problem<Isometry3<f64>, 6>) -> Result<(), PgoError> {
-    let weights: Vec<(f64, f64)> = problem.factors.iter().map(|f| weights_3d(&f.information)).collect();
+    let weights: Vec<(f64, f64)> = problem
+        .factors
+        .iter()
+        .map(|f| weights_3d(&f.information))
+        .collect();
     // Unknown per pose: Rᵀ (its columns are the rows of R); R_j = R_i Z  <=>  R_jᵀ = Zᵀ R_iᵀ.
     let rotation_edges: Vec<LinearEdge<3, 3>> = problem
         .factors
         .iter()
         .zip(&weights)
         .map(|(f, &(_, kappa))| {
-            let z = f.measured_inverse.rotation.inverse().to_rotation_matrix().into_inner();
-            LinearEdge { i: f.i, j: f.j, a_i: -z.transpose(), a_j: Matrix3::identity(), constant: Matrix3::zeros(), weight: kappa }
+            let z = f
+                .measured_inverse
+                .rotation
+                .inverse()
+                .to_rotation_matrix()
+                .into_inner();
+            LinearEdge {
+                i: f.i,
+                j: f.j,
+                a_i: -z.transpose(),
+                a_j: Matrix3::identity(),
+                constant: Matrix3::zeros(),
+                weight: kappa,
+            }
         })
         .collect();
-    let known: Vec<Matrix3<f64>> =
-        problem.poses.iter().map(|p| p.rotation.to_rotation_matrix().into_inner().transpose()).collect();
+    let known: Vec<Matrix3<f64>> = problem
+        .poses
+        .iter()
+        .map(|p| p.rotation.to_rotation_matrix().into_inner().transpose())
+        .collect();
     let relaxed = solve_linear(&problem.fixed, &rotation_edges, &known)?;
     let rotations: Vec<UnitQuaternion<f64>> = relaxed
         .iter()
@@ -171,16 +196,38 @@ pub fn chordal_2d(problem: &mut Problem<Isometry2<f64>, 3>) -> Result<(), PgoErr
         .iter()
         .zip(&weights)
         .map(|(f, &(_, kappa))| {
-            let z = f.measured_inverse.rotation.inverse().to_rotation_matrix().into_inner();
-            LinearEdge { i: f.i, j: f.j, a_i: -z, a_j: SMatrix::identity(), constant: Vector2::zeros(), weight: kappa }
+            let z = f
+                .measured_inverse
+                .rotation
+                .inverse()
+                .to_rotation_matrix()
+                .into_inner();
+            LinearEdge {
+                i: f.i,
+                j: f.j,
+                a_i: -z,
+                a_j: SMatrix::identity(),
+                constant: Vector2::zeros(),
+                weight: kappa,
+            }
         })
         .collect();
-    let known: Vec<Vector2<f64>> = problem.poses.iter().map(|p| Vector2::new(p.rotation.re, p.rotation.im)).collect();
+    let known: Vec<Vector2<f64>> = problem
+        .poses
+        .iter()
+        .map(|p| Vector2::new(p.rotation.re, p.rotation.im))
+        .collect();
     let relaxed = solve_linear(&problem.fixed, &rotation_edges, &known)?;
     let rotations: Vec<UnitComplex<f64>> = relaxed
         .iter()
         .zip(&problem.poses)
-        .map(|(x, pose)| if x.norm() > 1e-12 && x.iter().all(|v| v.is_finite()) { UnitComplex::new(x.y.atan2(x.x)) } else { pose.rotation })
+        .map(|(x, pose)| {
+            if x.norm() > 1e-12 && x.iter().all(|v| v.is_finite()) {
+                UnitComplex::new(x.y.atan2(x.x))
+            } else {
+                pose.rotation
+            }
+        })
         .collect();
     let translation_edges: Vec<LinearEdge<2, 1>> = problem
         .factors

@@ -46,7 +46,9 @@ impl RobustMode {
             "cauchy" => Ok(Self::Cauchy),
             "tls" => Ok(Self::Tls),
             "gnc" => Ok(Self::Gnc),
-            other => Err(PgoError::Option(format!("unknown robust mode `{other}` (none, huber, cauchy, tls, gnc)"))),
+            other => Err(PgoError::Option(format!(
+                "unknown robust mode `{other}` (none, huber, cauchy, tls, gnc)"
+            ))),
         }
     }
 
@@ -88,7 +90,9 @@ impl Initialization {
         match name {
             "file" | "none" => Ok(Self::File),
             "chordal" => Ok(Self::Chordal),
-            other => Err(PgoError::Option(format!("unknown initialisation `{other}` (file, chordal)"))),
+            other => Err(PgoError::Option(format!(
+                "unknown initialisation `{other}` (file, chordal)"
+            ))),
         }
     }
 }
@@ -157,10 +161,15 @@ pub struct PgoReport {
     pub stop: String,
     /// Loop closures beyond the kernel width at the end (rejected by TLS/GNC).
     pub outliers: usize,
+    /// The cost after each accepted step (of the last solve, for GNC).
+    pub costs: Vec<f64>,
 }
 
 /// Reads a g2o file, optimises it and returns the report and the optimised graph.
-pub fn optimize_g2o_file(path: impl AsRef<Path>, options: &PgoOptions) -> Result<(PgoReport, AnyPoseGraph), PgoError> {
+pub fn optimize_g2o_file(
+    path: impl AsRef<Path>,
+    options: &PgoOptions,
+) -> Result<(PgoReport, AnyPoseGraph), PgoError> {
     let path = path.as_ref();
     let start = Instant::now();
     let (mut graph, _) = read_g2o(path, &G2oReadOptions::default())?;
@@ -208,7 +217,11 @@ pub fn problem_of<G: GraphGroup<D>, const D: usize>(
     for (k, edge) in graph.edges.iter().enumerate() {
         let lookup = |id: u64| {
             index.get(&id).copied().ok_or_else(|| PgoError::InvalidEdge {
-                edge: EdgeLabel { index: k, from: edge.from.to_string(), to: edge.to.to_string() },
+                edge: EdgeLabel {
+                    index: k,
+                    from: edge.from.to_string(),
+                    to: edge.to.to_string(),
+                },
                 reason: format!("vertex {id} is unknown (no VERTEX line and not reachable by odometry)"),
             })
         };
@@ -258,7 +271,10 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
     };
     let kernel = Kernel::new(options.robust.loss(), width).map_err(PgoError::Option)?;
     if !(options.max_duration_s.is_finite() && options.max_duration_s > 0.0) {
-        return Err(PgoError::Option(format!("max_duration_s must be positive, got {}", options.max_duration_s)));
+        return Err(PgoError::Option(format!(
+            "max_duration_s must be positive, got {}",
+            options.max_duration_s
+        )));
     }
     let settings = LmSettings {
         max_iterations: options.max_iterations,
@@ -267,22 +283,48 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
         ..LmSettings::default()
     };
     let mut cache = SystemCache::<D>::default();
-    let (iterations, factorizations, final_cost, converged, stop, weights) = if options.robust == RobustMode::Gnc {
-        let gnc = GncSettings { threshold_squared: width * width, mu_factor: 1.4, max_outer_iterations: 100, inner: settings };
-        let outcome = gnc_tls(&mut problem, &gnc, &mut cache)?;
-        let stop = format!("{:?}", outcome.last.stop);
-        (outcome.total_iterations, outcome.factorizations, outcome.last.final_cost, outcome.last.converged(), stop, Some(outcome.weights))
-    } else {
-        let outcome = optimize(&mut problem, &kernel, &settings, &mut cache)?;
-        (outcome.iterations, outcome.factorizations, outcome.final_cost, outcome.converged(), format!("{:?}", outcome.stop), None)
-    };
+    let mut costs = Vec::new();
+    let (iterations, factorizations, final_cost, converged, stop, weights) =
+        if options.robust == RobustMode::Gnc {
+            let gnc = GncSettings {
+                threshold_squared: width * width,
+                mu_factor: 1.4,
+                max_outer_iterations: 100,
+                inner: settings,
+            };
+            let outcome = gnc_tls(&mut problem, &gnc, &mut cache)?;
+            let stop = format!("{:?}", outcome.last.stop);
+            costs.clone_from(&outcome.last.costs);
+            (
+                outcome.total_iterations,
+                outcome.factorizations,
+                outcome.last.final_cost,
+                outcome.last.converged(),
+                stop,
+                Some(outcome.weights),
+            )
+        } else {
+            let outcome = optimize(&mut problem, &kernel, &settings, &mut cache)?;
+            costs.clone_from(&outcome.costs);
+            (
+                outcome.iterations,
+                outcome.factorizations,
+                outcome.final_cost,
+                outcome.converged(),
+                format!("{:?}", outcome.stop),
+                None,
+            )
+        };
     let norms = problem.squared_norms();
     let is_outlier = |k: usize| match &weights {
         Some(w) => w[k] == 0.0,
         None => problem.factors[k].robust && options.robust != RobustMode::None && norms[k] > width * width,
     };
     let outliers = (0..norms.len()).filter(|&k| is_outlier(k)).count();
-    let final_inlier_cost = (0..norms.len()).filter(|&k| !is_outlier(k)).map(|k| 0.5 * norms[k]).sum();
+    let final_inlier_cost = (0..norms.len())
+        .filter(|&k| !is_outlier(k))
+        .map(|k| 0.5 * norms[k])
+        .sum();
     for (k, id) in ids.iter().enumerate() {
         graph.vertices.insert(*id, problem.poses[k]);
     }
@@ -294,7 +336,11 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
         loop_edges: problem.factors.iter().filter(|f| f.robust).count(),
         init: format!("{:?}", options.init).to_lowercase(),
         robust: options.robust.name().to_owned(),
-        robust_width: if options.robust == RobustMode::None { 0.0 } else { width },
+        robust_width: if options.robust == RobustMode::None {
+            0.0
+        } else {
+            width
+        },
         iterations,
         factorizations,
         time_s: start.elapsed().as_secs_f64(),
@@ -306,5 +352,6 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
         converged,
         stop,
         outliers,
+        costs,
     })
 }

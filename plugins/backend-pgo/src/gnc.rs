@@ -59,8 +59,13 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
     settings: &GncSettings,
     cache: &mut SystemCache<D>,
 ) -> Result<GncOutcome, PgoError> {
-    if !(settings.threshold_squared.is_finite() && settings.threshold_squared > 0.0 && settings.mu_factor > 1.0) {
-        return Err(PgoError::Option("GNC needs a positive threshold and a mu factor above 1".into()));
+    if !(settings.threshold_squared.is_finite()
+        && settings.threshold_squared > 0.0
+        && settings.mu_factor > 1.0)
+    {
+        return Err(PgoError::Option(
+            "GNC needs a positive threshold and a mu factor above 1".into(),
+        ));
     }
     let mut weights = vec![1.0; problem.factors.len()];
     // Start from the least-squares solution with every factor.
@@ -69,7 +74,12 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
     let (mut total_iterations, mut factorizations) = (last.iterations, last.factorizations);
     let robust: Vec<bool> = problem.factors.iter().map(|f| f.robust).collect();
     let norms = problem.squared_norms();
-    let s_max = norms.iter().zip(&robust).filter(|(_, r)| **r).map(|(s, _)| *s).fold(0.0f64, f64::max);
+    let s_max = norms
+        .iter()
+        .zip(&robust)
+        .filter(|(_, r)| **r)
+        .map(|(s, _)| *s)
+        .fold(0.0f64, f64::max);
     let c2 = settings.threshold_squared;
     let mut outer = 0;
     if 2.0 * s_max > c2 {
@@ -98,7 +108,11 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
         let norms = problem.squared_norms();
         for k in 0..weights.len() {
             if robust[k] {
-                weights[k] = if norms[k] <= c2 && weights[k] > 0.5 { 1.0 } else { 0.0 };
+                weights[k] = if norms[k] <= c2 && weights[k] > 0.5 {
+                    1.0
+                } else {
+                    0.0
+                };
             }
         }
         let mut polish = settings.inner;
@@ -110,7 +124,14 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
     if last.stop == StopReason::NothingToDo {
         last.stop = StopReason::Converged;
     }
-    Ok(GncOutcome { last, initial_cost, outer_iterations: outer, total_iterations, factorizations, weights })
+    Ok(GncOutcome {
+        last,
+        initial_cost,
+        outer_iterations: outer,
+        total_iterations,
+        factorizations,
+        weights,
+    })
 }
 
 #[cfg(test)]

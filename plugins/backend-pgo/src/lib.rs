@@ -13,4 +13,6 @@ pub mod se2;
 pub mod se3;
 
 pub use error::{EdgeLabel, PgoError};
-pub use g2o_file::{Initialization, PgoOptions, PgoReport, RobustMode, optimize_g2o_file, optimize_pose_graph, write_g2o};
+pub use g2o_file::{
+    Initialization, PgoOptions, PgoReport, RobustMode, optimize_g2o_file, optimize_pose_graph, write_g2o,
+};

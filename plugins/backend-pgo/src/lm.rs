@@ -2,7 +2,10 @@
 //! of Nielsen ("Damping parameter in Marquardt's method", IMM-REP-1999-05): the step solves
 //! `(H + λ diag(H)) δ = −g` with `H = Σ Jᵀ w Ω J` and `g = Σ Jᵀ w Ω r` (robust weights `w` by iteratively
 //! reweighted least squares), poses move as `T ← T · Exp(δ)`, and the gain ratio of actual to predicted
-//! cost decrease accepts or rejects the step and adapts `λ`.
+//! cost decrease accepts or rejects the step and adapts `λ`. The damping starts small (`λ = 1e-8`, nearly
+//! Gauss-Newton) and may shrink tenfold per good step: on the benchmark graphs this halves the number of
+//! factorisations against Nielsen's 1/3 from `1e-5`, and on poorly initialised graphs the gain test
+//! raises `λ` as needed.
 
 use std::time::{Duration, Instant};
 
@@ -57,6 +60,9 @@ pub struct LmSettings {
     pub step_tolerance: f64,
     /// Initial damping `λ` (relative to `diag(H)`).
     pub initial_lambda: f64,
+    /// Smallest factor by which a successful step shrinks `λ` (Nielsen's rule uses 1/3; pose graphs,
+    /// whose Gauss-Newton model is good once the rotations are right, converge in fewer steps with 1/10).
+    pub min_lambda_factor: f64,
     /// Give up raising `λ` past this.
     pub max_lambda: f64,
 }
@@ -69,7 +75,8 @@ impl Default for LmSettings {
             relative_cost_tolerance: 1e-6,
             absolute_cost_tolerance: 1e-12,
             step_tolerance: 1e-9,
-            initial_lambda: 1e-5,
+            initial_lambda: 1e-8,
+            min_lambda_factor: 0.1,
             max_lambda: 1e12,
         }
     }
@@ -91,13 +98,15 @@ pub enum StopReason {
 }
 
 /// What one run did.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct LmOutcome {
     pub iterations: usize,
     pub factorizations: usize,
     pub initial_cost: f64,
     pub final_cost: f64,
     pub stop: StopReason,
+    /// The cost after each accepted step.
+    pub costs: Vec<f64>,
 }
 
 impl LmOutcome {
@@ -118,7 +127,12 @@ pub struct SystemCache<const D: usize> {
 
 impl<const D: usize> Default for SystemCache<D> {
     fn default() -> Self {
-        Self { key: Vec::new(), blocks: 0, system: None, symbolic_count: 0 }
+        Self {
+            key: Vec::new(),
+            blocks: 0,
+            system: None,
+            symbolic_count: 0,
+        }
     }
 }
 
@@ -134,7 +148,9 @@ impl<const D: usize> SystemCache<D> {
             self.blocks = blocks;
             self.key = pairs;
         }
-        self.system.as_mut().ok_or_else(|| PgoError::Solver("no linear system".into()))
+        self.system
+            .as_mut()
+            .ok_or_else(|| PgoError::Solver("no linear system".into()))
     }
 }
 
@@ -163,10 +179,18 @@ pub fn optimize<G: PoseGroup<D>, const D: usize>(
     let start = Instant::now();
     let rho = |k: usize, s: f64| loss.rho(k, s);
     let initial_cost = problem.cost(&rho);
-    let mut outcome =
-        LmOutcome { iterations: 0, factorizations: 0, initial_cost, final_cost: initial_cost, stop: StopReason::NothingToDo };
+    let mut outcome = LmOutcome {
+        iterations: 0,
+        factorizations: 0,
+        initial_cost,
+        final_cost: initial_cost,
+        stop: StopReason::NothingToDo,
+        costs: Vec::new(),
+    };
     if !initial_cost.is_finite() {
-        return Err(PgoError::Solver(format!("the initial cost is not finite ({initial_cost})")));
+        return Err(PgoError::Solver(format!(
+            "the initial cost is not finite ({initial_cost})"
+        )));
     }
     let (block_of, blocks) = free_blocks(&problem.fixed);
     if blocks == 0 || problem.factors.is_empty() {
@@ -199,7 +223,15 @@ pub fn optimize<G: PoseGroup<D>, const D: usize>(
             outcome.stop = StopReason::Timeout;
             break;
         }
-        linearize(problem, loss, system, &block_of, &slot_of, &mut values, &mut gradient);
+        linearize(
+            problem,
+            loss,
+            system,
+            &block_of,
+            &slot_of,
+            &mut values,
+            &mut gradient,
+        );
         let accepted = loop {
             if lambda > settings.max_lambda {
                 break None;
@@ -236,7 +268,7 @@ pub fn optimize<G: PoseGroup<D>, const D: usize>(
             let actual = cost - new_cost;
             if new_cost.is_finite() && actual > 0.0 && predicted > 0.0 {
                 let gain = actual / predicted;
-                lambda *= (1.0 - (2.0 * gain - 1.0).powi(3)).max(1.0 / 3.0);
+                lambda *= (1.0 - (2.0 * gain - 1.0).powi(3)).max(settings.min_lambda_factor);
                 nu = 2.0;
                 break Some(new_cost);
             }
@@ -249,6 +281,7 @@ pub fn optimize<G: PoseGroup<D>, const D: usize>(
         };
         std::mem::swap(&mut problem.poses, &mut candidate);
         outcome.iterations += 1;
+        outcome.costs.push(new_cost);
         let decrease = cost - new_cost;
         cost = new_cost;
         let largest_step = step.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -268,7 +301,7 @@ pub fn optimize<G: PoseGroup<D>, const D: usize>(
     Ok(outcome)
 }
 
-/// Fills `values` (lower triangle of `H`) and `gradient` at the current poses.
+/// Fills `values` (upper triangle of `H`) and `gradient` at the current poses.
 fn linearize<G: PoseGroup<D>, const D: usize>(
     problem: &Problem<G, D>,
     loss: &dyn EdgeLoss,
@@ -285,10 +318,17 @@ fn linearize<G: PoseGroup<D>, const D: usize>(
         if bi.is_none() && bj.is_none() {
             continue;
         }
-        let (r, ji, jj) =
-            G::between_linearized(&factor.measured_inverse, &problem.poses[factor.i], &problem.poses[factor.j]);
+        let (r, ji, jj) = G::between_linearized(
+            &factor.measured_inverse,
+            &problem.poses[factor.i],
+            &problem.poses[factor.j],
+        );
         let weighted_r = factor.information * r;
-        let weight = if factor.robust { loss.weight(k, r.dot(&weighted_r)) } else { 1.0 };
+        let weight = if factor.robust {
+            loss.weight(k, r.dot(&weighted_r))
+        } else {
+            1.0
+        };
         if weight <= 0.0 {
             continue;
         }

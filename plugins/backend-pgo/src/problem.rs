@@ -53,18 +53,24 @@ pub enum Unanchored {
 
 /// Checks an information matrix: finite, symmetric within a tolerance, positive definite. Returns the
 /// symmetrised matrix or the reason it is unusable.
-pub fn check_information<const D: usize>(information: &SMatrix<f64, D, D>) -> Result<SMatrix<f64, D, D>, String> {
+pub fn check_information<const D: usize>(
+    information: &SMatrix<f64, D, D>,
+) -> Result<SMatrix<f64, D, D>, String> {
     if information.iter().any(|v| !v.is_finite()) {
         return Err("the information matrix holds a non-finite number".to_owned());
     }
     let scale = information.amax().max(f64::MIN_POSITIVE);
     let asymmetry = (information - information.transpose()).amax();
     if asymmetry > 1e-9 * scale {
-        return Err(format!("the information matrix is not symmetric (largest difference {asymmetry:.3e})"));
+        return Err(format!(
+            "the information matrix is not symmetric (largest difference {asymmetry:.3e})"
+        ));
     }
     let symmetric = (information + information.transpose()) * 0.5;
     if symmetric.cholesky().is_none() {
-        let min_eigenvalue = SymmetricEigen::new(DMatrix::from_column_slice(D, D, symmetric.as_slice())).eigenvalues.min();
+        let min_eigenvalue = SymmetricEigen::new(DMatrix::from_column_slice(D, D, symmetric.as_slice()))
+            .eigenvalues
+            .min();
         return Err(format!(
             "the information matrix is not positive definite (smallest eigenvalue {min_eigenvalue:.6e})"
         ));
@@ -86,21 +92,39 @@ impl<G: PoseGroup<D>, const D: usize> Problem<G, D> {
             return Err(PgoError::Empty("no vertices".to_owned()));
         }
         if fixed.len() != poses.len() {
-            return Err(PgoError::Option(format!("{} fixed flags for {} poses", fixed.len(), poses.len())));
+            return Err(PgoError::Option(format!(
+                "{} fixed flags for {} poses",
+                fixed.len(),
+                poses.len()
+            )));
         }
         for (k, pose) in poses.iter().enumerate() {
             if !pose.is_finite() {
-                return Err(PgoError::InvalidVertex { vertex: vertex_name(k), reason: "its pose is not finite".into() });
+                return Err(PgoError::InvalidVertex {
+                    vertex: vertex_name(k),
+                    reason: "its pose is not finite".into(),
+                });
             }
         }
         let label = |index: usize, edge: &RawEdge<G, D>| EdgeLabel {
             index,
-            from: if edge.i < poses.len() { vertex_name(edge.i) } else { format!("#{}", edge.i) },
-            to: if edge.j < poses.len() { vertex_name(edge.j) } else { format!("#{}", edge.j) },
+            from: if edge.i < poses.len() {
+                vertex_name(edge.i)
+            } else {
+                format!("#{}", edge.i)
+            },
+            to: if edge.j < poses.len() {
+                vertex_name(edge.j)
+            } else {
+                format!("#{}", edge.j)
+            },
         };
         let mut factors = Vec::with_capacity(edges.len());
         for (index, edge) in edges.iter().enumerate() {
-            let invalid = |reason: String| PgoError::InvalidEdge { edge: label(index, edge), reason };
+            let invalid = |reason: String| PgoError::InvalidEdge {
+                edge: label(index, edge),
+                reason,
+            };
             if edge.i >= poses.len() || edge.j >= poses.len() {
                 return Err(invalid("it names an unknown vertex".to_owned()));
             }
@@ -120,7 +144,11 @@ impl<G: PoseGroup<D>, const D: usize> Problem<G, D> {
             });
         }
         anchor_components(poses.len(), &factors, &mut fixed, unanchored, vertex_name)?;
-        Ok(Self { poses, fixed, factors })
+        Ok(Self {
+            poses,
+            fixed,
+            factors,
+        })
     }
 
     /// `½ Σ ρ(rᵀ Ω r)` at the current poses, with `rho` applied to robust factors only.
@@ -178,18 +206,23 @@ fn anchor_components<G, const D: usize>(
     }
     let mut anchored = vec![false; count];
     let mut size = vec![0usize; count];
-    for k in 0..count {
+    for (k, is_fixed) in fixed.iter().enumerate() {
         let r = root(&mut parent, k);
-        anchored[r] |= fixed[k];
+        anchored[r] |= *is_fixed;
         size[r] += 1;
     }
-    for k in 0..count {
+    for (k, is_fixed) in fixed.iter_mut().enumerate() {
         let r = root(&mut parent, k);
         if !anchored[r] {
             match unanchored {
-                Unanchored::Error => return Err(PgoError::Disconnected { vertex: vertex_name(k), count: size[r] }),
+                Unanchored::Error => {
+                    return Err(PgoError::Disconnected {
+                        vertex: vertex_name(k),
+                        count: size[r],
+                    });
+                }
                 Unanchored::AnchorFirst => {
-                    fixed[k] = true;
+                    *is_fixed = true;
                     anchored[r] = true;
                 }
             }

@@ -54,7 +54,10 @@ pub struct Kernel {
 
 impl Default for Kernel {
     fn default() -> Self {
-        Self { loss: RobustLoss::None, width: 1.0 }
+        Self {
+            loss: RobustLoss::None,
+            width: 1.0,
+        }
     }
 }
 
@@ -62,7 +65,10 @@ impl Kernel {
     /// A kernel, refusing widths that are not finite and positive.
     pub fn new(loss: RobustLoss, width: f64) -> Result<Self, String> {
         if loss != RobustLoss::None && !(width.is_finite() && width > 0.0) {
-            return Err(format!("the {} kernel width must be finite and positive, got {width}", loss.name()));
+            return Err(format!(
+                "the {} kernel width must be finite and positive, got {width}",
+                loss.name()
+            ));
         }
         Ok(Self { loss, width })
     }
@@ -127,7 +133,10 @@ fn ln_gamma(a: f64) -> f64 {
     }
     let a = a - 1.0;
     let t = a + 7.5;
-    let sum = COEFFICIENTS[1..].iter().enumerate().fold(COEFFICIENTS[0], |s, (k, c)| s + c / (a + k as f64 + 1.0));
+    let sum = COEFFICIENTS[1..]
+        .iter()
+        .enumerate()
+        .fold(COEFFICIENTS[0], |s, (k, c)| s + c / (a + k as f64 + 1.0));
     0.5 * (2.0 * std::f64::consts::PI).ln() + (a + 0.5) * t.ln() - t + sum.ln()
 }
 
@@ -204,7 +213,12 @@ mod tests {
 
     #[test]
     fn weights_are_the_derivatives_of_the_losses() {
-        for loss in [RobustLoss::None, RobustLoss::Huber, RobustLoss::Cauchy, RobustLoss::Tls] {
+        for loss in [
+            RobustLoss::None,
+            RobustLoss::Huber,
+            RobustLoss::Cauchy,
+            RobustLoss::Tls,
+        ] {
             let kernel = Kernel::new(loss, 1.5).unwrap();
             for s in [0.1, 1.0, 2.0, 5.0, 40.0] {
                 if loss == RobustLoss::Tls && (s - 2.25f64).abs() < 0.5 {
@@ -220,7 +234,13 @@ mod tests {
     #[test]
     fn chi2_quantiles_match_tables() {
         // Values from standard χ² tables.
-        for (dof, p, expected) in [(6, 0.01, 0.872), (6, 0.5, 5.348), (6, 0.99, 16.812), (3, 0.95, 7.815), (1, 0.95, 3.841)] {
+        for (dof, p, expected) in [
+            (6, 0.01, 0.872),
+            (6, 0.5, 5.348),
+            (6, 0.99, 16.812),
+            (3, 0.95, 7.815),
+            (1, 0.95, 3.841),
+        ] {
             let q = chi2_quantile(dof, p);
             assert!((q - expected).abs() < 2e-3, "dof {dof} p {p}: {q} vs {expected}");
         }
@@ -231,7 +251,10 @@ mod tests {
         for loss in [RobustLoss::Huber, RobustLoss::Cauchy, RobustLoss::Tls] {
             let kernel = Kernel::new(loss, 1.0).unwrap();
             assert!(kernel.rho(100.0) < 100.0 / 4.0, "{loss:?}");
-            assert!((kernel.rho(0.25) - 0.25).abs() < 0.05, "{loss:?} is quadratic near zero");
+            assert!(
+                (kernel.rho(0.25) - 0.25).abs() < 0.05,
+                "{loss:?} is quadratic near zero"
+            );
         }
         assert!(Kernel::new(RobustLoss::Huber, f64::NAN).is_err());
     }

@@ -57,14 +57,34 @@ pub fn se2_right_jacobian(xi: &Vector3<f64>) -> Matrix3<f64> {
         let t2 = theta * theta;
         ((theta - theta.sin()) / t2, (1.0 - theta.cos()) / t2)
     };
-    Matrix3::new(a, b, rho1 * c - rho2 * d, -b, a, rho1 * d + rho2 * c, 0.0, 0.0, 1.0)
+    Matrix3::new(
+        a,
+        b,
+        rho1 * c - rho2 * d,
+        -b,
+        a,
+        rho1 * d + rho2 * c,
+        0.0,
+        0.0,
+        1.0,
+    )
 }
 
 /// The adjoint of SE(2): `[[R, (t_y, −t_x)ᵀ], [0, 1]]`.
 pub fn se2_adjoint(pose: &Isometry2<f64>) -> Matrix3<f64> {
     let r = pose.rotation.to_rotation_matrix().into_inner();
     let t = pose.translation.vector;
-    Matrix3::new(r[(0, 0)], r[(0, 1)], t.y, r[(1, 0)], r[(1, 1)], -t.x, 0.0, 0.0, 1.0)
+    Matrix3::new(
+        r[(0, 0)],
+        r[(0, 1)],
+        t.y,
+        r[(1, 0)],
+        r[(1, 1)],
+        -t.x,
+        0.0,
+        0.0,
+        1.0,
+    )
 }
 
 impl PoseGroup<3> for Isometry2<f64> {
@@ -97,7 +117,17 @@ impl PoseGroup<3> for Isometry2<f64> {
         let det = a[(0, 0)] * a[(1, 1)] - a[(0, 1)] * a[(1, 0)];
         let a_inv = Matrix2::new(a[(1, 1)], -a[(0, 1)], -a[(1, 0)], a[(0, 0)]) / det;
         let b = a_inv * Vector2::new(jr[(0, 2)], jr[(1, 2)]);
-        Matrix3::new(a_inv[(0, 0)], a_inv[(0, 1)], -b.x, a_inv[(1, 0)], a_inv[(1, 1)], -b.y, 0.0, 0.0, 1.0)
+        Matrix3::new(
+            a_inv[(0, 0)],
+            a_inv[(0, 1)],
+            -b.x,
+            a_inv[(1, 0)],
+            a_inv[(1, 1)],
+            -b.y,
+            0.0,
+            0.0,
+            1.0,
+        )
     }
 
     fn adjoint(&self) -> Matrix3<f64> {
@@ -106,7 +136,11 @@ impl PoseGroup<3> for Isometry2<f64> {
 
     fn is_finite(&self) -> bool {
         let c = self.rotation.complex();
-        self.translation.vector.iter().chain([c.re, c.im].iter()).all(|v| v.is_finite())
+        self.translation
+            .vector
+            .iter()
+            .chain([c.re, c.im].iter())
+            .all(|v| v.is_finite())
     }
 }
 
@@ -120,7 +154,12 @@ mod tests {
 
     #[test]
     fn exp_and_log_are_inverse() {
-        for (x, y, t) in [(1.0, 2.0, 0.3), (-3.0, 0.5, 2.9), (0.1, -0.2, 1e-7), (4.0, 1.0, -3.0)] {
+        for (x, y, t) in [
+            (1.0, 2.0, 0.3),
+            (-3.0, 0.5, 2.9),
+            (0.1, -0.2, 1e-7),
+            (4.0, 1.0, -3.0),
+        ] {
             let p = pose(x, y, t);
             let back = se2_exp(&se2_log(&p));
             assert!((back.inverse() * p).translation.vector.norm() < 1e-12);
@@ -141,8 +180,16 @@ mod tests {
             d[c] = h;
             let di = (res(&(pi * se2_exp(&d)), &pj) - res(&(pi * se2_exp(&(-d))), &pj)) / (2.0 * h);
             let dj = (res(&pi, &(pj * se2_exp(&d))) - res(&pi, &(pj * se2_exp(&(-d))))) / (2.0 * h);
-            assert!((di - ji.column(c)).norm() < 1e-6, "J_i column {c}: {di} vs {}", ji.column(c));
-            assert!((dj - jj.column(c)).norm() < 1e-6, "J_j column {c}: {dj} vs {}", jj.column(c));
+            assert!(
+                (di - ji.column(c)).norm() < 1e-6,
+                "J_i column {c}: {di} vs {}",
+                ji.column(c)
+            );
+            assert!(
+                (dj - jj.column(c)).norm() < 1e-6,
+                "J_j column {c}: {dj} vs {}",
+                jj.column(c)
+            );
         }
     }
 

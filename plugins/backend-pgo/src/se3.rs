@@ -48,7 +48,11 @@ fn se3_q(rho: &Vector3<f64>, phi: &Vector3<f64>) -> Matrix3<f64> {
     let (p, r) = (hat(phi), hat(rho));
     let (c1, c2, c3) = if theta < SMALL_ANGLE_RAD {
         let t2 = theta * theta;
-        (1.0 / 6.0 - t2 / 120.0, 1.0 / 24.0 - t2 / 720.0, 1.0 / 120.0 - t2 / 2520.0)
+        (
+            1.0 / 6.0 - t2 / 120.0,
+            1.0 / 24.0 - t2 / 720.0,
+            1.0 / 120.0 - t2 / 2520.0,
+        )
     } else {
         let (s, c) = theta.sin_cos();
         let t2 = theta * theta;
@@ -72,7 +76,8 @@ pub fn se3_left_jacobian_inverse(xi: &Vector6<f64>) -> Matrix6<f64> {
     let q = se3_q(&rho, &phi);
     let mut out = Matrix6::zeros();
     out.fixed_view_mut::<3, 3>(0, 0).copy_from(&j_inv);
-    out.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-(j_inv * q * j_inv)));
+    out.fixed_view_mut::<3, 3>(0, 3)
+        .copy_from(&(-(j_inv * q * j_inv)));
     out.fixed_view_mut::<3, 3>(3, 3).copy_from(&j_inv);
     out
 }
@@ -86,7 +91,11 @@ pub fn so3_exp(phi: &Vector3<f64>) -> UnitQuaternion<f64> {
 pub fn so3_log(rotation: &UnitQuaternion<f64>) -> Vector3<f64> {
     // Take the quaternion with w >= 0 so the angle lies in [0, π].
     let q = rotation.quaternion();
-    let (w, v) = if q.w < 0.0 { (-q.w, -q.imag()) } else { (q.w, q.imag()) };
+    let (w, v) = if q.w < 0.0 {
+        (-q.w, -q.imag())
+    } else {
+        (q.w, q.imag())
+    };
     let sin_half = v.norm();
     if sin_half < 1e-12 {
         // θ ≈ 2 sin(θ/2) / cos(θ/2) to second order.
@@ -156,7 +165,11 @@ impl PoseGroup<6> for Isometry3<f64> {
 
     fn is_finite(&self) -> bool {
         let q = self.rotation.quaternion();
-        self.translation.vector.iter().chain(q.coords.iter()).all(|v| v.is_finite())
+        self.translation
+            .vector
+            .iter()
+            .chain(q.coords.iter())
+            .all(|v| v.is_finite())
     }
 }
 
@@ -196,7 +209,10 @@ mod tests {
                 let plus = se3_log(&(se3_exp(&xi) * se3_exp(&delta)));
                 let minus = se3_log(&(se3_exp(&xi) * se3_exp(&(-delta))));
                 let numeric = (plus - minus) / (2.0 * h);
-                assert!((numeric - analytic.column(c)).norm() < 1e-6, "column {c} scale {scale}");
+                assert!(
+                    (numeric - analytic.column(c)).norm() < 1e-6,
+                    "column {c} scale {scale}"
+                );
             }
         }
     }

@@ -13,7 +13,9 @@ pub struct BitSet {
 impl BitSet {
     /// The empty set over `n` vertices.
     pub fn new(n: usize) -> Self {
-        Self { words: vec![0; n.div_ceil(64)] }
+        Self {
+            words: vec![0; n.div_ceil(64)],
+        }
     }
 
     /// Grows the universe to `n` vertices.
@@ -43,7 +45,9 @@ impl BitSet {
 
     /// `self ∩ other`.
     pub fn and(&self, other: &BitSet) -> BitSet {
-        BitSet { words: self.words.iter().zip(&other.words).map(|(a, b)| a & b).collect() }
+        BitSet {
+            words: self.words.iter().zip(&other.words).map(|(a, b)| a & b).collect(),
+        }
     }
 
     /// `self ∖ other`, in place.
@@ -55,7 +59,11 @@ impl BitSet {
 
     /// The smallest member.
     pub fn first(&self) -> Option<usize> {
-        self.words.iter().enumerate().find(|(_, w)| **w != 0).map(|(k, w)| k * 64 + w.trailing_zeros() as usize)
+        self.words
+            .iter()
+            .enumerate()
+            .find(|(_, w)| **w != 0)
+            .map(|(k, w)| k * 64 + w.trailing_zeros() as usize)
     }
 
     /// The members, ascending.
@@ -82,7 +90,9 @@ pub struct Graph {
 impl Graph {
     /// `n` vertices, no edges.
     pub fn new(n: usize) -> Self {
-        Self { adjacency: vec![BitSet::new(n); n] }
+        Self {
+            adjacency: vec![BitSet::new(n); n],
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -120,7 +130,10 @@ impl Graph {
 
     /// True when every two members of `vertices` are adjacent.
     pub fn is_clique(&self, vertices: &[usize]) -> bool {
-        vertices.iter().enumerate().all(|(k, &a)| vertices[k + 1..].iter().all(|&b| self.adjacency[a].contains(b)))
+        vertices
+            .iter()
+            .enumerate()
+            .all(|(k, &a)| vertices[k + 1..].iter().all(|&b| self.adjacency[a].contains(b)))
     }
 }
 
@@ -195,7 +208,13 @@ pub fn max_clique_within(
     budget: u64,
 ) -> Result<Option<Vec<usize>>, BudgetExceeded> {
     // Seed the bound with `at_least` placeholder vertices so that only larger cliques are recorded.
-    let mut search = Search { graph, best: vec![usize::MAX; at_least], current: Vec::new(), nodes: 0, budget };
+    let mut search = Search {
+        graph,
+        best: vec![usize::MAX; at_least],
+        current: Vec::new(),
+        nodes: 0,
+        budget,
+    };
     search.expand(candidates.clone())?;
     let mut best = search.best;
     if best.contains(&usize::MAX) {
@@ -230,7 +249,9 @@ pub fn heuristic_clique(graph: &Graph) -> Vec<usize> {
         let mut clique = vec![start];
         let mut candidates = graph.neighbours(start).clone();
         while !candidates.is_empty() {
-            let pick = candidates.iter().max_by_key(|&u| (graph.neighbours(u).and(&candidates).count(), std::cmp::Reverse(u)));
+            let pick = candidates
+                .iter()
+                .max_by_key(|&u| (graph.neighbours(u).and(&candidates).count(), std::cmp::Reverse(u)));
             let Some(pick) = pick else { break };
             clique.push(pick);
             candidates = candidates.and(graph.neighbours(pick));
@@ -270,7 +291,24 @@ mod tests {
     #[test]
     fn finds_known_cliques() {
         // Two triangles sharing a vertex, plus a 4-clique {5, 6, 7, 8}.
-        let g = graph(9, &[(0, 1), (1, 2), (0, 2), (2, 3), (3, 4), (2, 4), (5, 6), (5, 7), (5, 8), (6, 7), (6, 8), (7, 8), (4, 5)]);
+        let g = graph(
+            9,
+            &[
+                (0, 1),
+                (1, 2),
+                (0, 2),
+                (2, 3),
+                (3, 4),
+                (2, 4),
+                (5, 6),
+                (5, 7),
+                (5, 8),
+                (6, 7),
+                (6, 8),
+                (7, 8),
+                (4, 5),
+            ],
+        );
         assert_eq!(max_clique(&g, 1_000_000).unwrap(), vec![5, 6, 7, 8]);
         // The complement of a perfect matching on 8 vertices: maximum clique 4 (one of each pair).
         let mut edges = Vec::new();
@@ -314,7 +352,10 @@ mod tests {
         for v in [0, 1, 2] {
             candidates.insert(v);
         }
-        assert_eq!(max_clique_within(&g, &candidates, 2, 1000).unwrap(), Some(vec![0, 1, 2]));
+        assert_eq!(
+            max_clique_within(&g, &candidates, 2, 1000).unwrap(),
+            Some(vec![0, 1, 2])
+        );
         assert_eq!(max_clique_within(&g, &candidates, 3, 1000).unwrap(), None);
         assert_eq!(max_clique_within(&g, &candidates, 0, 0), Err(BudgetExceeded));
     }

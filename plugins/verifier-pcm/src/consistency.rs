@@ -37,7 +37,12 @@ impl PcmLoop {
     /// Validates a closure and orients it; the error says why it cannot be used.
     pub fn from_closure(closure: &LoopClosure) -> Result<Self, String> {
         let pose = &closure.target_from_source;
-        let finite = pose.translation.vector.iter().chain(pose.rotation.coords.iter()).all(|v| v.is_finite());
+        let finite = pose
+            .translation
+            .vector
+            .iter()
+            .chain(pose.rotation.coords.iter())
+            .all(|v| v.is_finite());
         if !finite {
             return Err("the measured pose is not finite".into());
         }
@@ -46,7 +51,9 @@ impl PcmLoop {
             return Err("the information matrix is not finite".into());
         }
         let symmetric = (information + information.transpose()) * 0.5;
-        let cholesky = symmetric.cholesky().ok_or("the information matrix is not positive definite")?;
+        let cholesky = symmetric
+            .cholesky()
+            .ok_or("the information matrix is not positive definite")?;
         let covariance = cholesky.inverse();
         let mut pcm = Self {
             id: closure.id,
@@ -105,7 +112,10 @@ mod tests {
     struct Lines;
 
     fn truth(id: KeyframeId) -> Pose {
-        Pose::new(Vector3::new(f64::from(id.index) * 2.0, f64::from(id.robot.0) * 4.0, 0.0), Vector3::new(0.0, 0.0, 0.02 * f64::from(id.index)))
+        Pose::new(
+            Vector3::new(f64::from(id.index) * 2.0, f64::from(id.robot.0) * 4.0, 0.0),
+            Vector3::new(0.0, 0.0, 0.02 * f64::from(id.index)),
+        )
     }
 
     impl GraphView for Lines {
@@ -138,7 +148,10 @@ mod tests {
 
     /// A loop measured to 1 cm and 0.06°.
     fn precise(id: u64, target: KeyframeId, source: KeyframeId, error: Pose) -> LoopClosure {
-        LoopClosure { information: Information::identity() * 1e4, ..closure(id, target, source, error) }
+        LoopClosure {
+            information: Information::identity() * 1e4,
+            ..closure(id, target, source, error)
+        }
     }
 
     #[test]
@@ -148,7 +161,13 @@ mod tests {
         // Given from robot 1's side: it is re-oriented into the same group.
         let good_b = PcmLoop::from_closure(&precise(2, k(1, 9), k(0, 7), Pose::identity())).unwrap();
         assert_eq!(good_a.group(), good_b.group());
-        let bad = PcmLoop::from_closure(&precise(3, k(0, 5), k(1, 5), Pose::new(Vector3::new(3.0, 0.0, 0.0), Vector3::zeros()))).unwrap();
+        let bad = PcmLoop::from_closure(&precise(
+            3,
+            k(0, 5),
+            k(1, 5),
+            Pose::new(Vector3::new(3.0, 0.0, 0.0), Vector3::zeros()),
+        ))
+        .unwrap();
         let d_good = squared_mahalanobis(&good_a, &good_b, &Lines).unwrap();
         assert!(d_good < 1e-12, "{d_good}");
         assert!(squared_mahalanobis(&good_a, &bad, &Lines).unwrap() > 100.0);
@@ -161,7 +180,13 @@ mod tests {
         // exact one is about δᵀ (Σ_a + Σ_b)⁻¹ δ = |δ|² · 100 / 2.
         let k = KeyframeId::new;
         let exact = PcmLoop::from_closure(&closure(1, k(0, 4), k(1, 4), Pose::identity())).unwrap();
-        let off = PcmLoop::from_closure(&closure(2, k(0, 4), k(1, 4), Pose::new(Vector3::new(0.1, 0.0, 0.0), Vector3::zeros()))).unwrap();
+        let off = PcmLoop::from_closure(&closure(
+            2,
+            k(0, 4),
+            k(1, 4),
+            Pose::new(Vector3::new(0.1, 0.0, 0.0), Vector3::zeros()),
+        ))
+        .unwrap();
         let d = squared_mahalanobis(&exact, &off, &Lines).unwrap();
         assert!((d - 0.5).abs() < 1e-3, "{d}");
         let mut bad_information = closure(3, k(0, 1), k(1, 1), Pose::identity());

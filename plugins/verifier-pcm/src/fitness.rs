@@ -76,7 +76,10 @@ impl FitnessConfig {
             return Err("max_correspondence_m and max_truncated_mse_m2 must be positive".into());
         }
         if !(0.0..=1.0).contains(&self.min_overlap) {
-            return Err(format!("min_overlap must lie in [0, 1], got {}", self.min_overlap));
+            return Err(format!(
+                "min_overlap must lie in [0, 1], got {}",
+                self.min_overlap
+            ));
         }
         if !(self.source_voxel_m.is_finite() && self.source_voxel_m >= 0.0) {
             return Err("source_voxel_m must be finite and not negative".into());
@@ -86,8 +89,17 @@ impl FitnessConfig {
 
     /// Measures the fitness of `target_from_source` between two clouds; an error explains clouds that
     /// cannot be judged (no finite points).
-    pub fn measure(&self, target: &[Point], source: &[Point], target_from_source: &Pose) -> Result<Fitness, String> {
-        let target_points: Vec<[f32; 3]> = target.iter().filter(|p| p.is_finite()).map(|p| [p.x, p.y, p.z]).collect();
+    pub fn measure(
+        &self,
+        target: &[Point],
+        source: &[Point],
+        target_from_source: &Pose,
+    ) -> Result<Fitness, String> {
+        let target_points: Vec<[f32; 3]> = target
+            .iter()
+            .filter(|p| p.is_finite())
+            .map(|p| [p.x, p.y, p.z])
+            .collect();
         let finite_source: Vec<Point> = source.iter().filter(|p| p.is_finite()).copied().collect();
         let source_points = if self.source_voxel_m > 0.0 {
             voxel_downsample(&finite_source, self.source_voxel_m as f32)
@@ -108,7 +120,10 @@ impl FitnessConfig {
         for p in &source_points {
             let q = target_from_source * Point3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z));
             let query = [q.x as f32, q.y as f32, q.z as f32];
-            let found = tree.query(&query).nearest_one::<SquaredEuclidean<f32>>().execute();
+            let found = tree
+                .query(&query)
+                .nearest_one::<SquaredEuclidean<f32>>()
+                .execute();
             let d2 = f64::from(found.distance);
             if d2.is_finite() && d2 <= bound_m2 {
                 inliers += 1;
@@ -116,7 +131,11 @@ impl FitnessConfig {
             }
         }
         Ok(Fitness {
-            truncated_mse_m2: if inliers > 0 { sum_m2 / inliers as f64 } else { f64::INFINITY },
+            truncated_mse_m2: if inliers > 0 {
+                sum_m2 / inliers as f64
+            } else {
+                f64::INFINITY
+            },
             overlap: inliers as f64 / source_points.len() as f64,
             inliers,
             source_points: source_points.len(),
@@ -126,7 +145,10 @@ impl FitnessConfig {
     /// `None` when `fitness` passes, else the reason it fails.
     pub fn judge(&self, fitness: &Fitness) -> Option<String> {
         if fitness.inliers < self.min_inliers {
-            return Some(format!("truncated MSE: {} inlier pairs < {}", fitness.inliers, self.min_inliers));
+            return Some(format!(
+                "truncated MSE: {} inlier pairs < {}",
+                fitness.inliers, self.min_inliers
+            ));
         }
         if fitness.truncated_mse_m2 > self.max_truncated_mse_m2 {
             return Some(format!(
@@ -135,7 +157,10 @@ impl FitnessConfig {
             ));
         }
         if fitness.overlap < self.min_overlap {
-            return Some(format!("overlap {:.3} < {:.3} (truncated MSE {:.4} m²)", fitness.overlap, self.min_overlap, fitness.truncated_mse_m2));
+            return Some(format!(
+                "overlap {:.3} < {:.3} (truncated MSE {:.4} m²)",
+                fitness.overlap, self.min_overlap, fitness.truncated_mse_m2
+            ));
         }
         None
     }

@@ -31,13 +31,17 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     let pcm = PluginEntry::new(
         "pcm",
         "Truncated-MSE fitness, then pairwise consistency maximisation (exact incremental max clique)",
-        |config: PcmConfig, _context: &PluginContext| Ok(Box::new(PcmVerifier::new(config)?) as Box<dyn Verifier>),
+        |config: PcmConfig, _context: &PluginContext| {
+            Ok(Box::new(PcmVerifier::new(config)?) as Box<dyn Verifier>)
+        },
     )?;
     registry.verifier.register(pcm)?;
     let gnc = PluginEntry::new(
         "gnc",
         "Truncated-MSE fitness only; outliers left to GNC-TLS in the back-end (robust = \"gnc\")",
-        |config: GncConfig, _context: &PluginContext| Ok(Box::new(GncVerifier::new(config)?) as Box<dyn Verifier>),
+        |config: GncConfig, _context: &PluginContext| {
+            Ok(Box::new(GncVerifier::new(config)?) as Box<dyn Verifier>)
+        },
     )?;
     registry.verifier.register(gnc)
 }

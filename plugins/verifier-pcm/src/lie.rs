@@ -14,7 +14,11 @@ fn hat(v: &Vector3<f64>) -> Matrix3<f64> {
 /// `Log` of SO(3), angle in `[0, π]`.
 fn so3_log(rotation: &UnitQuaternion<f64>) -> Vector3<f64> {
     let q = rotation.quaternion();
-    let (w, v) = if q.w < 0.0 { (-q.w, -q.imag()) } else { (q.w, q.imag()) };
+    let (w, v) = if q.w < 0.0 {
+        (-q.w, -q.imag())
+    } else {
+        (q.w, q.imag())
+    };
     let sin_half = v.norm();
     if sin_half < 1e-12 {
         return v * (2.0 / w.max(1e-300));
@@ -41,7 +45,8 @@ pub fn adjoint(pose: &Pose) -> Matrix6<f64> {
     let rotation = pose.rotation.to_rotation_matrix().into_inner();
     let mut ad = Matrix6::zeros();
     ad.fixed_view_mut::<3, 3>(0, 0).copy_from(&rotation);
-    ad.fixed_view_mut::<3, 3>(0, 3).copy_from(&(hat(&pose.translation.vector) * rotation));
+    ad.fixed_view_mut::<3, 3>(0, 3)
+        .copy_from(&(hat(&pose.translation.vector) * rotation));
     ad.fixed_view_mut::<3, 3>(3, 3).copy_from(&rotation);
     ad
 }
@@ -76,7 +81,10 @@ fn ln_gamma(a: f64) -> f64 {
     ];
     let a = a - 1.0;
     let t = a + 7.5;
-    let sum = C[1..].iter().enumerate().fold(C[0], |s, (k, c)| s + c / (a + k as f64 + 1.0));
+    let sum = C[1..]
+        .iter()
+        .enumerate()
+        .fold(C[0], |s, (k, c)| s + c / (a + k as f64 + 1.0));
     0.5 * (2.0 * std::f64::consts::PI).ln() + (a + 0.5) * t.ln() - t + sum.ln()
 }
 
@@ -124,7 +132,14 @@ mod tests {
 
     #[test]
     fn quantiles_match_the_tables() {
-        for (p, expected) in [(0.01, 0.872), (0.05, 1.635), (0.1, 2.204), (0.5, 5.348), (0.75, 7.840), (0.99, 16.812)] {
+        for (p, expected) in [
+            (0.01, 0.872),
+            (0.05, 1.635),
+            (0.1, 2.204),
+            (0.5, 5.348),
+            (0.75, 7.840),
+            (0.99, 16.812),
+        ] {
             assert!((chi2_quantile(6, p) - expected).abs() < 2e-3, "p = {p}");
         }
     }

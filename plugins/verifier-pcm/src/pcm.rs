@@ -37,7 +37,12 @@ pub struct PcmParams {
 
 impl Default for PcmParams {
     fn default() -> Self {
-        Self { consistency_probability: 0.99, min_loops_before_decision: 5, clique_search_budget: 2_000_000, check_intra_robot: true }
+        Self {
+            consistency_probability: 0.99,
+            min_loops_before_decision: 5,
+            clique_search_budget: 2_000_000,
+            check_intra_robot: true,
+        }
     }
 }
 
@@ -45,7 +50,10 @@ impl PcmParams {
     /// Checks that every value is usable.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.consistency_probability > 0.0 && self.consistency_probability < 1.0) {
-            return Err(format!("consistency_probability must lie in (0, 1), got {}", self.consistency_probability));
+            return Err(format!(
+                "consistency_probability must lie in (0, 1), got {}",
+                self.consistency_probability
+            ));
         }
         Ok(())
     }
@@ -89,7 +97,12 @@ impl Pcm {
     pub fn new(params: PcmParams) -> Result<Self, String> {
         params.validate()?;
         let threshold = chi2_quantile(6, params.consistency_probability);
-        Ok(Self { params, threshold, groups: BTreeMap::new(), known: BTreeSet::new() })
+        Ok(Self {
+            params,
+            threshold,
+            groups: BTreeMap::new(),
+            known: BTreeSet::new(),
+        })
     }
 
     /// The squared-Mahalanobis threshold in use.
@@ -99,8 +112,11 @@ impl Pcm {
 
     /// Every loop currently accepted.
     pub fn accepted(&self) -> Vec<LoopId> {
-        let mut ids: Vec<LoopId> =
-            self.groups.values().flat_map(|g| g.clique.iter().map(|&k| g.loops[k].id)).collect();
+        let mut ids: Vec<LoopId> = self
+            .groups
+            .values()
+            .flat_map(|g| g.clique.iter().map(|&k| g.loops[k].id))
+            .collect();
         ids.sort_unstable();
         ids
     }
@@ -119,20 +135,29 @@ impl Pcm {
             group.decided = true;
             group.exact = true;
             let id = group.loops[v].id;
-            return Ok(PcmUpdate { accepted: vec![id], clique_size: group.clique.len(), group_size: group.loops.len(), exact: true, ..PcmUpdate::default() });
+            return Ok(PcmUpdate {
+                accepted: vec![id],
+                clique_size: group.clique.len(),
+                group_size: group.loops.len(),
+                exact: true,
+                ..PcmUpdate::default()
+            });
         }
         let v = group.graph.add_vertex();
         for u in 0..v {
-            if let Some(d2) = squared_mahalanobis(&group.loops[u], &pcm_loop, graph) {
-                if d2 <= self.threshold {
-                    group.graph.add_edge(u, v);
-                }
+            if squared_mahalanobis(&group.loops[u], &pcm_loop, graph).is_some_and(|d2| d2 <= self.threshold) {
+                group.graph.add_edge(u, v);
             }
         }
         group.loops.push(pcm_loop);
         let before: BTreeSet<usize> = group.clique.iter().copied().collect();
         if group.loops.len() < self.params.min_loops_before_decision.max(1) {
-            return Ok(PcmUpdate { pending: true, group_size: group.loops.len(), exact: true, ..PcmUpdate::default() });
+            return Ok(PcmUpdate {
+                pending: true,
+                group_size: group.loops.len(),
+                exact: true,
+                ..PcmUpdate::default()
+            });
         }
         let budget = self.params.clique_search_budget;
         if group.decided && group.exact {

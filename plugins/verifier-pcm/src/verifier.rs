@@ -30,7 +30,11 @@ fn fitness_rejection(config: &FitnessConfig, candidate: &LoopCandidate<'_>) -> O
         return None;
     }
     let closure = &candidate.closure;
-    match config.measure(candidate.target_cloud.points(), candidate.source_cloud.points(), &closure.target_from_source) {
+    match config.measure(
+        candidate.target_cloud.points(),
+        candidate.source_cloud.points(),
+        &closure.target_from_source,
+    ) {
         Ok(fitness) => config.judge(&fitness),
         Err(reason) => Some(format!("truncated MSE: {reason}")),
     }
@@ -53,9 +57,15 @@ pub struct PcmVerifier {
 
 impl PcmVerifier {
     pub fn new(config: PcmConfig) -> PluginResult<Self> {
-        config.fitness.validate().map_err(|e| PluginError::failed("pcm", e))?;
+        config
+            .fitness
+            .validate()
+            .map_err(|e| PluginError::failed("pcm", e))?;
         let pcm = Pcm::new(config.consistency).map_err(|e| PluginError::failed("pcm", e))?;
-        Ok(Self { fitness: config.fitness, pcm })
+        Ok(Self {
+            fitness: config.fitness,
+            pcm,
+        })
     }
 
     /// The PCM state (accepted loops, threshold).
@@ -67,7 +77,12 @@ impl PcmVerifier {
 impl Verifier for PcmVerifier {
     fn submit(&mut self, candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> PluginResult<Verdict> {
         let id = candidate.closure.id;
-        let reject = |reason: String| Ok(Verdict { rejected: vec![(id, reason)], ..Verdict::default() });
+        let reject = |reason: String| {
+            Ok(Verdict {
+                rejected: vec![(id, reason)],
+                ..Verdict::default()
+            })
+        };
         if let Some(reason) = unknown_keyframe(candidate, graph) {
             return reject(reason);
         }
@@ -79,7 +94,11 @@ impl Verifier for PcmVerifier {
             return reject(reason);
         }
         let update = self.pcm.add(pcm_loop, graph).map_err(PluginError::InvalidInput)?;
-        let mut verdict = Verdict { accepted: update.accepted.clone(), retracted: update.retracted.clone(), rejected: Vec::new() };
+        let mut verdict = Verdict {
+            accepted: update.accepted.clone(),
+            retracted: update.retracted.clone(),
+            rejected: Vec::new(),
+        };
         if !update.pending && !update.accepted.contains(&id) {
             verdict.rejected.push((
                 id,
@@ -102,8 +121,13 @@ pub struct GncVerifier {
 
 impl GncVerifier {
     pub fn new(config: GncConfig) -> PluginResult<Self> {
-        config.fitness.validate().map_err(|e| PluginError::failed("gnc", e))?;
-        Ok(Self { fitness: config.fitness })
+        config
+            .fitness
+            .validate()
+            .map_err(|e| PluginError::failed("gnc", e))?;
+        Ok(Self {
+            fitness: config.fitness,
+        })
     }
 }
 
@@ -114,8 +138,14 @@ impl Verifier for GncVerifier {
             .or_else(|| PcmLoop::from_closure(&candidate.closure).err())
             .or_else(|| fitness_rejection(&self.fitness, candidate));
         Ok(match reason {
-            Some(reason) => Verdict { rejected: vec![(id, reason)], ..Verdict::default() },
-            None => Verdict { accepted: vec![id], ..Verdict::default() },
+            Some(reason) => Verdict {
+                rejected: vec![(id, reason)],
+                ..Verdict::default()
+            },
+            None => Verdict {
+                accepted: vec![id],
+                ..Verdict::default()
+            },
         })
     }
 }
