@@ -1,0 +1,159 @@
+//! Tests of the `ransac` plugin: the coarse conformance suite, the real HDL-32E pair yawed and moved
+//! 10 m, and bad input.
+
+use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
+use skid_core::slots::CoarseRegistration;
+use skid_core::{Cloud, Params, PluginContext, Point, Pose, Registry, Slot};
+use skid_testkit::pose_error;
+use skid_testkit::registration::{RegistrationExpectations, check_coarse};
+
+use super::*;
+
+fn context() -> PluginContext {
+    PluginContext {
+        threads: 2,
+        ..PluginContext::default()
+    }
+}
+
+/// The real scan pair and the reference `target_from_source`.
+fn real_pair() -> (Cloud, Cloud, Pose) {
+    let dir = skid_io::data_path("lidar_scan_pair_fast_gicp").unwrap();
+    let read = |name: &str| {
+        let cloud = skid_io::pcd::read_pcd(dir.join(name), skid_io::CloudReadOptions::VALID_ONLY).unwrap();
+        Cloud::new(cloud.points)
+    };
+    let text = std::fs::read_to_string(dir.join("relative_fast_gicp.txt")).unwrap();
+    let values: Vec<f64> = text.split_whitespace().map(|v| v.parse().unwrap()).collect();
+    let matrix = Matrix4::from_row_slice(&values);
+    let rotation = Rotation3::from_matrix(&matrix.fixed_view::<3, 3>(0, 0).into_owned());
+    let truth = Pose::from_parts(
+        Translation3::new(matrix[(0, 3)], matrix[(1, 3)], matrix[(2, 3)]),
+        UnitQuaternion::from_rotation_matrix(&rotation),
+    );
+    (read("251370668.pcd"), read("251371071.pcd"), truth)
+}
+
+/// The conformance scene is about one random sample per m², far sparser than a LiDAR keyframe, so the
+/// suite runs with 1 m voxels (radii scale with the voxel); see the same note in the KISS-Matcher tests.
+#[test]
+fn conformance() {
+    let config = RansacConfig {
+        voxel_size_m: 1.0,
+        ..RansacConfig::default()
+    };
+    check_coarse(
+        &mut RansacMatcher::new(config, &context()).unwrap(),
+        &[0.0, 135.0, 270.0],
+        10.0,
+        RegistrationExpectations {
+            max_translation_error_m: 0.5,
+            max_rotation_error_deg: 2.0,
+        },
+    );
+}
+
+#[test]
+fn recovers_large_yaws_with_a_ten_metre_offset_on_the_real_pair() {
+    let (target, source, truth) = real_pair();
+    let mut matcher = RansacMatcher::new(RansacConfig::default(), &context()).unwrap();
+    for yaw_deg in [90.0f64, 180.0] {
+        let yaw = yaw_deg.to_radians();
+        let motion = Pose::new(Vector3::new(0.0, 10.0, 0.0), Vector3::z() * yaw);
+        let moved_target = target.view().transformed(&motion);
+        let report = matcher
+            .align_with_report(moved_target.view(), source.view())
+            .unwrap();
+        let (translation_m, rotation_deg) =
+            pose_error(&(motion * truth), &report.alignment.target_from_source);
+        assert!(report.alignment.valid, "yaw {yaw_deg}°: {report:?}");
+        assert!(
+            translation_m < 1.0 && rotation_deg < 3.0,
+            "yaw {yaw_deg}°: off by {translation_m:.3} m, {rotation_deg:.3}° ({report:?})"
+        );
+    }
+}
+
+#[test]
+fn same_seed_same_result_whatever_the_thread_count() {
+    let (target, source, _) = real_pair();
+    let mut results = Vec::new();
+    for threads in [1, 2] {
+        let context = PluginContext {
+            threads,
+            seed: 7,
+            ..PluginContext::default()
+        };
+        let mut matcher = RansacMatcher::new(RansacConfig::default(), &context).unwrap();
+        results.push(
+            matcher
+                .align(target.view(), source.view(), None)
+                .unwrap()
+                .target_from_source,
+        );
+    }
+    assert_eq!(results[0], results[1]);
+}
+
+#[test]
+fn featureless_and_tiny_inputs_are_invalid_with_a_reason() {
+    let mut matcher = RansacMatcher::new(RansacConfig::default(), &context()).unwrap();
+    let plane = Cloud::new(
+        (0..4000)
+            .map(|i| Point::new((i % 80) as f32 * 0.25 - 10.0, (i / 80) as f32 * 0.25 - 6.0, -1.8))
+            .collect(),
+    );
+    let empty = Cloud::default();
+    for (name, target, source) in [("plane", &plane, &plane), ("empty", &empty, &plane)] {
+        let report = matcher.align_with_report(target.view(), source.view()).unwrap();
+        assert!(!report.alignment.valid, "{name}: {report:?}");
+        assert!(report.invalid_reason.is_some_and(|r| !r.is_empty()), "{name}");
+        let pose = report.alignment.target_from_source;
+        assert!(pose.translation.vector.iter().all(|v| v.is_finite()), "{name}");
+    }
+    let mut bad = plane.clone();
+    bad.points[3].z = f32::INFINITY;
+    let error = matcher
+        .align(plane.view(), bad.view(), None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("source cloud") && error.contains("point 3"),
+        "{error}"
+    );
+}
+
+#[test]
+fn registers_with_defaults_and_refuses_bad_parameters() {
+    let mut registry = Registry::new();
+    register(&mut registry).unwrap();
+    assert_eq!(registry.names(Slot::Coarse), vec![PLUGIN_NAME.to_owned()]);
+    assert!(
+        registry
+            .coarse
+            .create(PLUGIN_NAME, &Params::default(), &context())
+            .is_ok()
+    );
+    let typo = Params::from_toml_str("max_iteration = 10").unwrap();
+    assert!(registry.validate(Slot::Coarse, PLUGIN_NAME, &typo).is_err());
+    for bad in [
+        RansacConfig {
+            confidence: 1.0,
+            ..RansacConfig::default()
+        },
+        RansacConfig {
+            voxel_size_m: -1.0,
+            ..RansacConfig::default()
+        },
+        RansacConfig {
+            edge_length_similarity: 2.0,
+            ..RansacConfig::default()
+        },
+    ] {
+        let error = RansacMatcher::new(bad, &context())
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(error.contains(PLUGIN_NAME), "{error}");
+    }
+}
