@@ -12,6 +12,7 @@ use crate::ape::{AlignmentSummary, align, ape_of_aligned};
 use crate::associate::{Associated, TimeAssociation, associate_by_index, associate_by_time};
 use crate::drift::{DriftOptions, DriftResult, drift};
 use crate::error::EvalError;
+use crate::plot::{PlotOptions, PlotOutput, Series, line_plot, trajectory_plot};
 use crate::rpe::{RpeOptions, RpeResult, rpe};
 use crate::stats::ErrorStats;
 use crate::trajectory::{Trajectory, TrajectoryFormat, read_trajectory};
@@ -74,6 +75,9 @@ pub struct EvalReport {
     /// The associated estimate after alignment, for plots.
     #[serde(skip)]
     pub est_aligned: Vec<Pose>,
+    /// The ATE of every associated pose, metres, for plots.
+    #[serde(skip)]
+    pub ate_errors_m: Vec<f64>,
 }
 
 fn associate(
@@ -125,6 +129,7 @@ pub fn evaluate(gt: &Trajectory, est: &Trajectory, options: &EvalOptions) -> Res
         drift_error,
         gt_associated: pairs.gt,
         est_aligned: ape.est_aligned,
+        ate_errors_m: ape.translation_errors_m,
     })
 }
 
@@ -152,6 +157,37 @@ fn stats_row(text: &mut String, name: &str, s: &ErrorStats) {
 }
 
 impl EvalReport {
+    /// Writes `trajectory.png` (top view of the ground truth and the aligned estimate) and `ate.png`
+    /// (translation error along the associated poses) into `dir`.
+    pub fn write_plots(&self, dir: &Path, options: &PlotOptions) -> Result<Vec<PlotOutput>, EvalError> {
+        let trajectory = trajectory_plot(
+            &dir.join("trajectory.png"),
+            "Trajectory (top view)",
+            &[
+                ("ground truth", &self.gt_associated),
+                ("estimate (aligned)", &self.est_aligned),
+            ],
+            true,
+            options,
+        )?;
+        let ate = line_plot(
+            &dir.join("ate.png"),
+            "Absolute translation error",
+            "associated pose",
+            "ATE (m)",
+            vec![Series::line(
+                "ATE",
+                self.ate_errors_m
+                    .iter()
+                    .enumerate()
+                    .map(|(k, e)| (k as f64, *e))
+                    .collect(),
+            )],
+            options,
+        )?;
+        Ok(vec![trajectory, ate])
+    }
+
     /// The report as Markdown: inputs, alignment, one table of error statistics, drift.
     pub fn to_markdown(&self) -> String {
         let mut text = String::from("# Trajectory evaluation\n\n");

@@ -98,6 +98,9 @@ fn tum_and_kitti_files_give_the_hand_computed_ate() {
     let json = serde_json::to_value(&report).unwrap();
     assert!((json["ate_m"]["rmse"].as_f64().unwrap() - 0.05f64.sqrt()).abs() < 1e-9);
     assert_eq!(json["alignment"]["kind"], "se3");
+    let plots = report.write_plots(dir.path(), &PlotOptions::default()).unwrap();
+    assert_eq!(plots.len(), 2);
+    assert!(inspect(&dir.path().join("ate.png")).2 > 500);
     let markdown = report.to_markdown();
     assert!(markdown.contains("| ATE (m) | 0.223607 |"), "{markdown}");
 }
