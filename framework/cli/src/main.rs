@@ -85,6 +85,33 @@ enum Command {
         #[command(flatten)]
         layers: LayerArgs,
     },
+    /// Trajectory errors of EST against GT (TUM or KITTI files): ATE/ARE after alignment, RPE, drift.
+    Eval {
+        #[arg(long)]
+        gt: PathBuf,
+        #[arg(long)]
+        est: PathBuf,
+        /// Alignment before the absolute errors: se3 (evo -a), sim3 (evo -as) or none.
+        #[arg(long, default_value = "se3")]
+        align: String,
+    },
+    /// Optimise a g2o pose graph (2D or 3D) and print iterations, time and costs (GTSAM convention).
+    Pgo {
+        file: PathBuf,
+        /// none, huber, cauchy, tls or gnc (kernels apply to loop closures).
+        #[arg(long, default_value = "none")]
+        robust: String,
+        /// Initial guess: file (the file's poses), odometry or chordal.
+        #[arg(long, default_value = "file")]
+        init: String,
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// The simulator on its own: export KITTI-format folders or a preview PNG.
+    Sim {
+        #[command(subcommand)]
+        command: SimCommand,
+    },
     /// Run the configured odometry alone on a KITTI-format folder; writes TUM and KITTI trajectories.
     Odometry {
         folder: PathBuf,
@@ -92,6 +119,42 @@ enum Command {
         out: Option<PathBuf>,
         #[command(flatten)]
         layers: LayerArgs,
+    },
+}
+
+#[derive(Args, Debug)]
+struct SimFlags {
+    /// planetary, cave or urban.
+    #[arg(long, default_value = "planetary")]
+    world: String,
+    /// vlp16, os1-32, os1-64, hdl64e or avia.
+    #[arg(long, default_value = "os1-64")]
+    sensor: String,
+    /// Robots (1 to 16).
+    #[arg(long, default_value_t = 3)]
+    robots: u32,
+    /// Scans per robot; 0 runs each route to its end.
+    #[arg(long, default_value_t = 0)]
+    frames: u32,
+    #[arg(long, default_value_t = 7)]
+    seed: u64,
+}
+
+#[derive(Subcommand, Debug)]
+enum SimCommand {
+    /// Write each robot as a KITTI-format folder (velodyne/*.bin, times.txt, poses.txt, calib.txt).
+    Export {
+        #[command(flatten)]
+        flags: SimFlags,
+        out: PathBuf,
+    },
+    /// Write a top-down PNG of the world with the routes.
+    Preview {
+        #[command(flatten)]
+        flags: SimFlags,
+        out: PathBuf,
+        #[arg(long, default_value_t = 1024)]
+        size_px: u32,
     },
 }
 
@@ -130,6 +193,18 @@ struct LayerArgs {
     config_dir: Option<PathBuf>,
 }
 
+impl SimFlags {
+    fn args(&self) -> commands::extra::SimArgs<'_> {
+        commands::extra::SimArgs {
+            world: &self.world,
+            sensor: &self.sensor,
+            robots: self.robots,
+            frames: self.frames,
+            seed: self.seed,
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     logging::init(cli.verbose, cli.quiet);
@@ -156,6 +231,19 @@ fn main() -> ExitCode {
             fine,
             layers,
         } => commands::tools::register(&registry, &target, &source, Some(&coarse), Some(&fine), &layers),
+        Command::Eval { gt, est, align } => commands::extra::eval(&gt, &est, &align),
+        Command::Pgo {
+            file,
+            robust,
+            init,
+            out,
+        } => commands::extra::pgo(&file, &robust, &init, out.as_deref()),
+        Command::Sim {
+            command: SimCommand::Export { flags, out },
+        } => commands::extra::sim_export(&flags.args(), &out),
+        Command::Sim {
+            command: SimCommand::Preview { flags, out, size_px },
+        } => commands::extra::sim_preview(&flags.args(), &out, size_px),
         Command::Odometry { folder, out, layers } => {
             commands::tools::odometry(&registry, &folder, out.as_deref(), &layers)
         }

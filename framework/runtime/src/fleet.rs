@@ -15,6 +15,30 @@ use crate::summary::RunSummary;
 pub struct Fleet {
     pub config: ResolvedConfig,
     pub robots: Vec<RobotHost>,
+    /// The in-process hub when the robots talk through the `loopback` transport: its simulated clock
+    /// follows the scans' stamps and its link model sees the robots' true positions.
+    pub hub: Option<skid_transport_loopback::LoopbackHub>,
+}
+
+/// Gives the `loopback` transport's hub a name unique to this fleet, so two runs in one process (tests,
+/// benchmarks) never share links. Returns the name.
+fn isolate_loopback_hub(config: &mut ResolvedConfig) -> Option<String> {
+    let transport = config.slots.get_mut(&Slot::Transport)?;
+    if transport.plugin != "loopback" {
+        return None;
+    }
+    static FLEETS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let serial = FLEETS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let mut table = transport.params.table().clone();
+    let base = table
+        .get("hub")
+        .and_then(|v| v.as_str())
+        .unwrap_or("default")
+        .to_owned();
+    let name = format!("{base}/{}/{serial}", std::process::id());
+    table.insert("hub".into(), toml::Value::String(name.clone()));
+    transport.params = skid_core::Params::new(table);
+    Some(name)
 }
 
 fn build<T: ?Sized + 'static>(
@@ -44,7 +68,8 @@ const DELIVERY_ROUNDS: usize = 4;
 impl Fleet {
     /// Builds every robot's plugins. `threads` is the whole host's budget; in lockstep every robot may
     /// use all of it, since only one robot runs at a time.
-    pub fn build(config: ResolvedConfig, registry: &Registry) -> Result<Self, RuntimeError> {
+    pub fn build(mut config: ResolvedConfig, registry: &Registry) -> Result<Self, RuntimeError> {
+        let hub_name = isolate_loopback_hub(&mut config);
         let robots_total = config.run.robots;
         let threads = if config.run.threads == 0 {
             std::thread::available_parallelism().map_or(1, |n| n.get())
@@ -84,7 +109,8 @@ impl Fleet {
             let protocol = ProtocolEndpoint::new(robot, session, ProtocolConfig::default());
             robots.push(RobotHost::new(robot, plugins, protocol));
         }
-        Ok(Self { config, robots })
+        let hub = hub_name.and_then(|name| skid_transport_loopback::LoopbackHub::find(&name));
+        Ok(Self { config, robots, hub })
     }
 
     /// Runs every robot in lockstep until all sources end (or `max_scans` per robot), calling
@@ -108,16 +134,41 @@ impl Fleet {
                 done += usize::from(!robot.finished);
                 send_all(robot, outbox);
             }
+            self.sync_hub();
             self.deliver()?;
             progress(done);
         }
+        // Let the last messages arrive: advance the simulated clock past the link latency.
         for _ in 0..DELIVERY_ROUNDS {
+            if let Some(hub) = &self.hub {
+                hub.advance_to(hub.now_nanos() + 1_000_000_000);
+            }
             self.deliver()?;
         }
         for robot in &mut self.robots {
             robot.optimize(&self.config)?;
         }
         Ok(RunSummary::of(self, started.elapsed().as_secs_f64()))
+    }
+
+    /// Moves the hub's simulated clock to the newest scan stamp and tells it where the robots are.
+    fn sync_hub(&self) {
+        let Some(hub) = &self.hub else { return };
+        let newest = self
+            .robots
+            .iter()
+            .filter_map(|r| r.scans.last().map(|s| s.stamp_nanos))
+            .max()
+            .unwrap_or(0);
+        if newest > hub.now_nanos() {
+            hub.advance_to(newest);
+        }
+        for robot in &self.robots {
+            if let Some(truth) = robot.scans.last().and_then(|s| s.ground_truth) {
+                let t = truth.translation.vector;
+                hub.set_position(robot.robot, [t.x, t.y, t.z]);
+            }
+        }
     }
 
     /// Polls every robot's transport and acts on what arrived, a few rounds so replies come through.

@@ -107,7 +107,8 @@ pub fn loops_message(
                 source: closure.source,
                 target_from_source: PoseMsg::from_pose(&closure.target_from_source),
                 information: InformationMsg::from_information(&closure.information),
-                fitness_m2: f32::NAN,
+                // The verifier keeps the fitness to itself; 0 marks it as not reported.
+                fitness_m2: 0.0,
             })
             .collect(),
         retracted: retracted.to_vec(),

@@ -31,7 +31,8 @@ pub struct SimConfig {
     pub seed: u64,
     /// `vlp16`, `os1-32`, `os1-64`, `hdl64e` or `avia`.
     pub sensor: String,
-    /// Fleet size, 1 to 16; the robot index comes from the plugin context.
+    /// Fleet size, 1 to 16, for the export tools; as a plugin the fleet size is the run's `run.robots`
+    /// and the robot index comes from the plugin context.
     pub robots: u32,
     /// Scans to produce; 0 = until the end of the route.
     pub frames: u32,
@@ -344,6 +345,8 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         "sim",
         "Built-in LiDAR simulator: planetary/cave/urban worlds, VLP-16/OS1/HDL-64E/Avia, IMU and ground truth",
         |config: SimConfig, context: &PluginContext| {
+            // Inside a run the fleet size is the run's (`run.robots`); `robots` serves the export tools.
+            let config = SimConfig { robots: context.fleet_size.max(1), ..config };
             let threads = if config.threads == 0 { context.threads.max(1) } else { config.threads };
             Ok(Box::new(SimSource::new(&config, context.robot.0, threads)?) as Box<dyn Source>)
         },

@@ -8,8 +8,20 @@ use skid_core::{PluginError, Registry};
 pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     #[cfg(feature = "source-files")]
     skid_source_files::register(registry)?;
+    #[cfg(feature = "source-sim")]
+    skid_source_sim::register(registry)?;
     #[cfg(feature = "odometry-gt")]
     skid_odometry_gt::register(registry)?;
+    #[cfg(feature = "descriptor-solid")]
+    skid_descriptor_solid::register(registry)?;
+    #[cfg(feature = "descriptor-scan-context")]
+    skid_descriptor_scan_context::register(registry)?;
+    #[cfg(feature = "descriptor-iris")]
+    skid_descriptor_iris::register(registry)?;
+    #[cfg(feature = "verifier-pcm")]
+    skid_verifier_pcm::register(registry)?;
+    #[cfg(feature = "transport-loopback")]
+    skid_transport_loopback::register(registry)?;
     // Keep the binding used when every feature is off.
     let _ = &registry;
     Ok(())

@@ -1,5 +1,6 @@
 //! The subcommands' bodies.
 
+pub mod extra;
 pub mod tools;
 
 use std::path::{Path, PathBuf};

@@ -1,0 +1,87 @@
+//! Commands over whole files and the simulator: `skid eval`, `skid pgo` and `skid sim export|preview`.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use skid_backend_pgo::{Initialization, PgoOptions, RobustMode};
+use skid_eval::EvalOptions;
+use skid_eval::umeyama::AlignmentKind;
+use skid_sim::SimConfig;
+
+/// `skid eval --gt GT --est EST [--align se3|sim3|none]`: one JSON line in evo's definitions.
+pub fn eval(gt: &Path, est: &Path, align: &str) -> Result<()> {
+    let alignment = match align {
+        "se3" => AlignmentKind::Se3,
+        "sim3" => AlignmentKind::Sim3,
+        "none" => AlignmentKind::None,
+        other => anyhow::bail!("unknown alignment `{other}`; expected se3, sim3 or none"),
+    };
+    let options = EvalOptions {
+        alignment,
+        ..EvalOptions::default()
+    };
+    let report = skid_eval::evaluate_files(gt, est, &options)?;
+    println!("{}", serde_json::to_string(&report)?);
+    Ok(())
+}
+
+/// `skid pgo FILE.g2o [--robust ..] [--init ..] [--out OUT.g2o]`: one JSON line.
+pub fn pgo(file: &Path, robust: &str, init: &str, out: Option<&Path>) -> Result<()> {
+    let options = PgoOptions {
+        robust: RobustMode::parse(robust)?,
+        init: Initialization::parse(init)?,
+        ..PgoOptions::default()
+    };
+    let (mut report, graph) = skid_backend_pgo::optimize_g2o_file(file, &options)?;
+    if let Some(out) = out {
+        skid_backend_pgo::write_g2o(out, &graph)?;
+    }
+    report.costs.clear();
+    println!("{}", serde_json::to_string(&report)?);
+    Ok(())
+}
+
+/// The simulator configuration of `skid sim` from its flags.
+pub struct SimArgs<'a> {
+    pub world: &'a str,
+    pub sensor: &'a str,
+    pub robots: u32,
+    pub frames: u32,
+    pub seed: u64,
+}
+
+fn sim_config(args: &SimArgs<'_>) -> Result<SimConfig> {
+    let config = SimConfig {
+        world: args.world.to_owned(),
+        sensor: args.sensor.to_owned(),
+        robots: args.robots,
+        frames: args.frames,
+        seed: args.seed,
+        ..SimConfig::default()
+    };
+    config.validate()?;
+    Ok(config)
+}
+
+/// `skid sim export`: every robot as a KITTI-format folder under `out`.
+pub fn sim_export(args: &SimArgs<'_>, out: &Path) -> Result<()> {
+    let config = sim_config(args)?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create output folder {}", out.display()))?;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let summaries = skid_sim::export_fleet_kitti(out, &config, threads)?;
+    for (robot, summary) in summaries.iter().enumerate() {
+        println!(
+            "{}",
+            serde_json::json!({ "robot": robot, "summary": format!("{summary:?}") })
+        );
+    }
+    Ok(())
+}
+
+/// `skid sim preview`: a top-down PNG of the world with every robot's route.
+pub fn sim_preview(args: &SimArgs<'_>, out: &Path, size_px: u32) -> Result<()> {
+    let config = sim_config(args)?;
+    skid_sim::preview_fleet_png(out, &config, size_px)?;
+    println!("{}", serde_json::json!({ "png": out.display().to_string() }));
+    Ok(())
+}
