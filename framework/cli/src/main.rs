@@ -47,6 +47,9 @@ enum Command {
     Run {
         /// Profile overlay from `configs/profiles/` (for example `scan_context`).
         profile: Option<String>,
+        /// The same as the positional PROFILE.
+        #[arg(long = "profile", value_name = "PROFILE", conflicts_with = "profile")]
+        profile_flag: Option<String>,
         #[command(flatten)]
         layers: LayerArgs,
     },
@@ -209,7 +212,11 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     logging::init(cli.verbose, cli.quiet);
     let result = commands::registry(&cli.plugin_libs).and_then(|registry| match cli.command {
-        Command::Run { profile, layers } => commands::run(&registry, profile, &layers),
+        Command::Run {
+            profile,
+            profile_flag,
+            layers,
+        } => commands::run(&registry, profile.or(profile_flag), &layers),
         Command::Plugins { slot, json } => commands::plugins(&registry, slot.as_deref(), json),
         Command::Config(ConfigCommand::Show { profile, layers }) => {
             commands::config_show(&registry, profile, &layers)

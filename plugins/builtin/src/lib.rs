@@ -18,6 +18,10 @@ pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     skid_descriptor_scan_context::register(registry)?;
     #[cfg(feature = "descriptor-iris")]
     skid_descriptor_iris::register(registry)?;
+    #[cfg(feature = "coarse-kiss-matcher")]
+    skid_coarse_kiss_matcher::register(registry)?;
+    #[cfg(feature = "coarse-ransac")]
+    skid_coarse_ransac::register(registry)?;
     #[cfg(feature = "verifier-pcm")]
     skid_verifier_pcm::register(registry)?;
     #[cfg(feature = "transport-loopback")]
