@@ -17,6 +17,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use clap::Parser;
 use serde::Serialize;
+use skid_bench::stats::time_ms;
 use skid_bench::{BenchArgs, Report, Timing};
 use skid_core::slots::{Descriptor, DescriptorBuf};
 use skid_core::{KeyframeId, Pose};
@@ -157,28 +158,6 @@ fn variants(case: &Case) -> Result<Vec<(String, Box<dyn Descriptor>, usize)>> {
         iris.wire_size_bytes(),
     ));
     Ok(out)
-}
-
-/// CPU time of the calling thread in milliseconds (Linux `schedstat`), so that figures stay meaningful
-/// on a busy machine; wall time elsewhere.
-fn thread_time_ms() -> f64 {
-    let cpu = std::fs::read_to_string("/proc/thread-self/schedstat")
-        .ok()
-        .and_then(|text| text.split_whitespace().next().and_then(|n| n.parse::<f64>().ok()));
-    match cpu {
-        Some(nanos) => nanos * 1e-6,
-        None => {
-            static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
-            START.get_or_init(std::time::Instant::now).elapsed().as_secs_f64() * 1e3
-        }
-    }
-}
-
-/// Runs `work` and returns its result and the thread time it took.
-fn time_ms<T>(work: impl FnOnce() -> T) -> (T, f64) {
-    let start = thread_time_ms();
-    let value = work();
-    (value, thread_time_ms() - start)
 }
 
 fn yaw_of(pose: &Pose) -> f64 {
@@ -450,7 +429,7 @@ fn main() -> Result<()> {
     }
     report.write(&args.bench.out)?;
     let notes = format!(
-        "\nTrue match: ground-truth positions within {} m (narrow FOV: and headings within {}°); own keyframes within {} s excluded; one keyframe every {} m of {} m routes, 3 robots (leader, reverse, same direction). Times are thread-CPU medians per keyframe on the raw scan (`extract`) and per top-1 query over all keyframes of the case (`query`). NaN = not applicable.\n\n{}",
+        "\nTrue match: ground-truth positions within {} m (narrow FOV: and headings within {}°); own keyframes within {} s excluded; one keyframe every {} m of {} m routes, 3 robots (leader, reverse, same direction). Times are single-threaded wall-clock medians (on a shared machine: upper bounds) per keyframe on the raw scan (`extract`) and per top-1 query over all keyframes of the case (`query`). NaN = not applicable.\n\n{}",
         args.match_m,
         args.narrow_max_yaw_deg,
         args.exclude_s,
