@@ -41,7 +41,7 @@ fn load_with_overlay(name: &str) -> Result<skid_config::ResolvedConfig, ConfigEr
 #[test]
 fn default_profile_loads_and_fills_plugin_defaults() {
     let config = sources().load(&registry()).unwrap();
-    assert_eq!(config.slot(Slot::Source).plugin, "kitti");
+    assert_eq!(config.slot(Slot::Source).plugin, "sim");
     assert_eq!(config.slot(Slot::Odometry).plugin, "ground_truth");
     assert!(
         config

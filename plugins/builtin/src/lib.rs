@@ -22,6 +22,8 @@ pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     skid_coarse_kiss_matcher::register(registry)?;
     #[cfg(feature = "coarse-ransac")]
     skid_coarse_ransac::register(registry)?;
+    #[cfg(feature = "fine-gicp")]
+    skid_fine_gicp::register(registry)?;
     #[cfg(feature = "verifier-pcm")]
     skid_verifier_pcm::register(registry)?;
     #[cfg(feature = "transport-loopback")]
