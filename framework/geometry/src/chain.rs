@@ -38,17 +38,28 @@ impl OdometryChains {
     /// Records keyframe `id` at `world_from_sensor` (in its robot's odometry frame), with the covariance
     /// of the step from keyframe `id.index - 1` (ignored for the first keyframe).
     pub fn insert(&mut self, id: KeyframeId, world_from_sensor: Pose, step_covariance: Information) {
-        self.chains.entry(id.robot).or_default().insert(id.index, Link { world_from_sensor, step_covariance });
+        self.chains.entry(id.robot).or_default().insert(
+            id.index,
+            Link {
+                world_from_sensor,
+                step_covariance,
+            },
+        );
     }
 
     /// The odometry pose of a keyframe.
     pub fn pose(&self, id: KeyframeId) -> Option<Pose> {
-        self.chains.get(&id.robot)?.get(&id.index).map(|link| link.world_from_sensor)
+        self.chains
+            .get(&id.robot)?
+            .get(&id.index)
+            .map(|link| link.world_from_sensor)
     }
 
     /// Whether every keyframe from the first to `id` is known (the chain has no gap up to it).
     pub fn contains(&self, id: KeyframeId) -> bool {
-        self.chains.get(&id.robot).is_some_and(|chain| chain.contains_key(&id.index))
+        self.chains
+            .get(&id.robot)
+            .is_some_and(|chain| chain.contains_key(&id.index))
     }
 
     /// Every keyframe of every robot, ordered by robot then index.
@@ -63,13 +74,21 @@ impl OdometryChains {
     pub fn chain(&self, robot: RobotId) -> Vec<(u32, Pose)> {
         self.chains
             .get(&robot)
-            .map(|chain| chain.iter().map(|(&index, link)| (index, link.world_from_sensor)).collect())
+            .map(|chain| {
+                chain
+                    .iter()
+                    .map(|(&index, link)| (index, link.world_from_sensor))
+                    .collect()
+            })
             .unwrap_or_default()
     }
 
     /// The covariance of the step into keyframe `id`.
     pub fn step_covariance(&self, id: KeyframeId) -> Option<Information> {
-        self.chains.get(&id.robot)?.get(&id.index).map(|link| link.step_covariance)
+        self.chains
+            .get(&id.robot)?
+            .get(&id.index)
+            .map(|link| link.step_covariance)
     }
 
     /// The relative odometry `target_from_source` between two keyframes of one robot and its covariance,
@@ -80,7 +99,11 @@ impl OdometryChains {
             return None;
         }
         let chain = self.chains.get(&target.robot)?;
-        let (low, high) = if target.index <= source.index { (target.index, source.index) } else { (source.index, target.index) };
+        let (low, high) = if target.index <= source.index {
+            (target.index, source.index)
+        } else {
+            (source.index, target.index)
+        };
         let low_pose = chain.get(&low)?.world_from_sensor;
         let mut covariance = Matrix6::zeros();
         for index in low + 1..=high {
@@ -88,13 +111,17 @@ impl OdometryChains {
             let ad = adjoint(&(low_pose.inverse() * previous));
             covariance += ad * chain.get(&index)?.step_covariance * ad.transpose();
         }
-        let target_from_source = chain.get(&target.index)?.world_from_sensor.inverse() * chain.get(&source.index)?.world_from_sensor;
+        let target_from_source = chain.get(&target.index)?.world_from_sensor.inverse()
+            * chain.get(&source.index)?.world_from_sensor;
         if target.index > source.index {
             // The covariance was accumulated in the low (= source) frame; move it to the target frame.
             let ad = adjoint(&target_from_source);
             covariance = ad * covariance * ad.transpose();
         }
-        Some(RelativePose { target_from_source, covariance })
+        Some(RelativePose {
+            target_from_source,
+            covariance,
+        })
     }
 }
 
@@ -112,17 +139,31 @@ mod tests {
             chains.insert(KeyframeId::new(2, index), pose, Information::identity() * 0.01);
             pose *= step;
         }
-        let forward = chains.between(KeyframeId::new(2, 1), KeyframeId::new(2, 4)).unwrap();
+        let forward = chains
+            .between(KeyframeId::new(2, 1), KeyframeId::new(2, 4))
+            .unwrap();
         let expected = step * step * step;
         assert!((forward.target_from_source.translation.vector - expected.translation.vector).norm() < 1e-12);
-        let one = chains.between(KeyframeId::new(2, 1), KeyframeId::new(2, 2)).unwrap();
+        let one = chains
+            .between(KeyframeId::new(2, 1), KeyframeId::new(2, 2))
+            .unwrap();
         assert!(forward.covariance.trace() > 2.9 * one.covariance.trace());
-        let backward = chains.between(KeyframeId::new(2, 4), KeyframeId::new(2, 1)).unwrap();
+        let backward = chains
+            .between(KeyframeId::new(2, 4), KeyframeId::new(2, 1))
+            .unwrap();
         let identity = forward.target_from_source * backward.target_from_source;
         assert!(identity.translation.vector.norm() < 1e-12);
         assert!(backward.covariance.iter().all(|v| v.is_finite()) && backward.covariance.trace() > 0.0);
-        assert!(chains.between(KeyframeId::new(2, 1), KeyframeId::new(3, 1)).is_none());
-        assert!(chains.between(KeyframeId::new(2, 1), KeyframeId::new(2, 9)).is_none());
+        assert!(
+            chains
+                .between(KeyframeId::new(2, 1), KeyframeId::new(3, 1))
+                .is_none()
+        );
+        assert!(
+            chains
+                .between(KeyframeId::new(2, 1), KeyframeId::new(2, 9))
+                .is_none()
+        );
     }
 
     #[test]

@@ -14,12 +14,28 @@ pub const CLOUD_EXTENSIONS: [&str; 3] = ["bin", "pcd", "ply"];
 /// supported ones.
 pub fn read_cloud(path: impl AsRef<Path>, options: CloudReadOptions) -> Result<Cloud<Point>, IoError> {
     let path = path.as_ref();
-    let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
     match extension.as_str() {
         "bin" => kitti::read_kitti_bin(path, options),
-        "pcd" => pcd::read_pcd(path, options).map(|c| Cloud { points: c.points, report: c.report }),
-        "ply" => ply::read_ply(path, options).map(|c| Cloud { points: c.points, report: c.report }),
-        _ => Err(IoError::invalid(path, format!("unknown point-cloud format; expected one of .{}", CLOUD_EXTENSIONS.join(", .")))),
+        "pcd" => pcd::read_pcd(path, options).map(|c| Cloud {
+            points: c.points,
+            report: c.report,
+        }),
+        "ply" => ply::read_ply(path, options).map(|c| Cloud {
+            points: c.points,
+            report: c.report,
+        }),
+        _ => Err(IoError::invalid(
+            path,
+            format!(
+                "unknown point-cloud format; expected one of .{}",
+                CLOUD_EXTENSIONS.join(", .")
+            ),
+        )),
     }
 }
 
@@ -30,7 +46,10 @@ mod tests {
     #[test]
     fn dispatches_on_extension_and_refuses_others() {
         let dir = tempfile::tempdir().unwrap();
-        let points = vec![Point::with_intensity(1.0, 2.0, 3.0, 0.5), Point::with_intensity(-1.0, 0.0, 2.0, 0.25)];
+        let points = vec![
+            Point::with_intensity(1.0, 2.0, 3.0, 0.5),
+            Point::with_intensity(-1.0, 0.0, 2.0, 0.25),
+        ];
         for name in ["a.bin", "a.pcd", "a.PLY"] {
             let path = dir.path().join(name);
             match name {
@@ -38,9 +57,15 @@ mod tests {
                 "a.pcd" => pcd::write_pcd(&path, &points, &pcd::PcdWriteOptions::default()).unwrap(),
                 _ => ply::write_ply(&path, &points, ply::PlyFormat::BinaryLittleEndian).unwrap(),
             }
-            assert_eq!(read_cloud(&path, CloudReadOptions::default()).unwrap().points, points, "{name}");
+            assert_eq!(
+                read_cloud(&path, CloudReadOptions::default()).unwrap().points,
+                points,
+                "{name}"
+            );
         }
-        let error = read_cloud(dir.path().join("a.xyz"), CloudReadOptions::default()).unwrap_err().to_string();
+        let error = read_cloud(dir.path().join("a.xyz"), CloudReadOptions::default())
+            .unwrap_err()
+            .to_string();
         assert!(error.contains("a.xyz") && error.contains(".pcd"), "{error}");
     }
 }
