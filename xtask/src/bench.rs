@@ -31,4 +31,9 @@ pub const PROFILES: &[BenchProfile] = &[BenchProfile {
     summary: "PR curves, max F1, recall at 100% precision, bytes, extraction/query time of SOLiD, Scan Context, LiDAR-Iris on simulated multi-robot runs",
     package: "skid-bench",
     binary: "skid-bench-place-recognition",
+}, BenchProfile {
+    name: "ipc",
+    summary: "one-way latency of 2 MB / 256 KB / 2 KB keyframes between two processes over skid-ipc (iceoryx2, event wake-up)",
+    package: "skid-bench",
+    binary: "skid-bench-ipc",
 }];
