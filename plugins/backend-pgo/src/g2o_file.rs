@@ -77,8 +77,10 @@ impl RobustMode {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Initialization {
-    /// The file's vertices (or the odometry chain the reader composed for missing ones).
+    /// The given poses: the file's vertices (or the odometry chain the reader composed for missing
+    /// ones); in the back-end, the current estimate.
     #[default]
+    #[serde(alias = "current")]
     File,
     /// The chordal relaxation ([`crate::chordal`]).
     Chordal,

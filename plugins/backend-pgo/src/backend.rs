@@ -1,0 +1,312 @@
+//! The `pgo` back-end plugin: keeps the keyframes, odometry and accepted loops it is given, and optimises
+//! the robot's distributed pose graph ([`crate::distributed`]) by Levenberg-Marquardt ([`crate::lm`]) or
+//! GNC-TLS ([`crate::gnc`]), reusing the symbolic factorisation while the topology stays the same.
+//!
+//! Conventions: odometry and loop information matrices weigh the residual `Log(Z⁻¹ T_t⁻¹ T_s)`
+//! (translation first). [`GraphView::odometry_between`] reports the covariance of `target_from_source`
+//! perturbed on the left, in the target keyframe's frame (as `skid_testkit::backend::ChainGraph`).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+use skid_core::slots::{
+    Backend, GraphView, LoopClosure, OdometryMeasurement, OptimizeBudget, OptimizeReport, RelativePose,
+};
+use skid_core::{KeyframeId, LoopId, PluginContext, PluginError, PluginResult, Pose, RobotId};
+
+use crate::chain::{Chains, Step};
+use crate::distributed::{Scope, active_loops, align_peers, build, write_back};
+use crate::g2o_file::{Initialization, RobustMode};
+use crate::gnc::{GncSettings, gnc_tls};
+use crate::group::PoseGroup;
+use crate::lm::{LmSettings, SystemCache, optimize};
+use crate::problem::check_information;
+use crate::robust::{Kernel, RobustLoss, chi2_quantile};
+
+/// Parameters of the `pgo` back-end (`[backend.pgo]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PgoConfig {
+    /// Robust loss on loop closures: none, huber, cauchy, tls or gnc (GNC-TLS).
+    pub robust: RobustMode,
+    /// Kernel width on the Mahalanobis norm; 0 = `√χ²₆` quantile at `inlier_probability`.
+    pub robust_width: f64,
+    pub inlier_probability: f64,
+    /// Optimise only this robot's keyframes and the peer keyframes its loops touch (the paper's
+    /// distributed form); off = every keyframe, odometry edge and loop (centralised).
+    pub distributed: bool,
+    /// `chordal`: start every optimisation from the chordal relaxation instead of the current estimate.
+    pub init: Initialization,
+    /// Stop when a step lowers the cost by less than this fraction.
+    pub relative_tolerance: f64,
+}
+
+impl Default for PgoConfig {
+    fn default() -> Self {
+        Self {
+            robust: RobustMode::None,
+            robust_width: 0.0,
+            inlier_probability: 0.99,
+            distributed: true,
+            init: Initialization::File,
+            relative_tolerance: 1e-6,
+        }
+    }
+}
+
+/// The plugin state.
+pub struct PgoBackend {
+    config: PgoConfig,
+    own: RobotId,
+    poses: BTreeMap<KeyframeId, Pose>,
+    chains: Chains,
+    loops: BTreeMap<LoopId, LoopClosure>,
+    aligned: BTreeSet<RobotId>,
+    cache: SystemCache<6>,
+    kernel: Kernel,
+}
+
+fn invalid(message: impl Into<String>) -> PluginError {
+    PluginError::InvalidInput(message.into())
+}
+
+fn finite_pose(pose: &Pose) -> bool {
+    <Pose as PoseGroup<6>>::is_finite(pose)
+}
+
+impl PgoBackend {
+    pub fn new(config: PgoConfig, context: &PluginContext) -> PluginResult<Self> {
+        if !(config.inlier_probability > 0.0 && config.inlier_probability < 1.0) {
+            return Err(PluginError::failed(
+                "pgo",
+                "inlier_probability must lie in (0, 1)",
+            ));
+        }
+        if !(config.relative_tolerance.is_finite() && config.relative_tolerance >= 0.0) {
+            return Err(PluginError::failed(
+                "pgo",
+                "relative_tolerance must be finite and not negative",
+            ));
+        }
+        let width = if config.robust_width > 0.0 {
+            config.robust_width
+        } else {
+            chi2_quantile(6, config.inlier_probability).sqrt()
+        };
+        let loss = match config.robust {
+            RobustMode::None => RobustLoss::None,
+            RobustMode::Huber => RobustLoss::Huber,
+            RobustMode::Cauchy => RobustLoss::Cauchy,
+            RobustMode::Tls | RobustMode::Gnc => RobustLoss::Tls,
+        };
+        let kernel = Kernel::new(loss, width).map_err(|e| PluginError::failed("pgo", e))?;
+        Ok(Self {
+            config,
+            own: context.robot,
+            poses: BTreeMap::new(),
+            chains: Chains::default(),
+            loops: BTreeMap::new(),
+            aligned: BTreeSet::from([context.robot]),
+            cache: SystemCache::default(),
+            kernel,
+        })
+    }
+
+    /// Checks a measurement between two known keyframes; returns its information, symmetrised.
+    fn check_measurement(
+        &self,
+        what: &str,
+        target: KeyframeId,
+        source: KeyframeId,
+        pose: &Pose,
+        information: &skid_core::Information,
+    ) -> PluginResult<skid_core::Information> {
+        for id in [target, source] {
+            if !self.poses.contains_key(&id) {
+                return Err(invalid(format!(
+                    "{what} {target} -> {source}: keyframe {id} is unknown"
+                )));
+            }
+        }
+        if target == source {
+            return Err(invalid(format!(
+                "{what} {target} -> {source} links a keyframe to itself"
+            )));
+        }
+        if !finite_pose(pose) {
+            return Err(invalid(format!(
+                "{what} {target} -> {source}: the measured pose is not finite"
+            )));
+        }
+        check_information(information)
+            .map_err(|reason| invalid(format!("{what} {target} -> {source}: {reason}")))
+    }
+
+    fn scope(&self) -> Scope {
+        if self.config.distributed {
+            Scope::Distributed { own: self.own }
+        } else {
+            Scope::Full
+        }
+    }
+}
+
+impl Backend for PgoBackend {
+    fn add_keyframe(&mut self, id: KeyframeId, world_from_sensor: Pose) -> PluginResult<()> {
+        if self.poses.contains_key(&id) {
+            return Err(invalid(format!("keyframe {id} was added before")));
+        }
+        if !finite_pose(&world_from_sensor) {
+            return Err(invalid(format!("keyframe {id}: the pose is not finite")));
+        }
+        self.poses.insert(id, world_from_sensor);
+        self.chains
+            .robots
+            .entry(id.robot)
+            .or_default()
+            .add_keyframe(id.index);
+        Ok(())
+    }
+
+    fn add_odometry(&mut self, measurement: OdometryMeasurement) -> PluginResult<()> {
+        let (target, source) = (measurement.target, measurement.source);
+        let information = self.check_measurement(
+            "odometry",
+            target,
+            source,
+            &measurement.target_from_source,
+            &measurement.information,
+        )?;
+        if target.robot != source.robot || target.index >= source.index {
+            return Err(invalid(format!(
+                "odometry {target} -> {source} must go forwards within one robot"
+            )));
+        }
+        let chain = self.chains.robots.entry(source.robot).or_default();
+        if chain.step(source.index).is_some() {
+            return Err(invalid(format!("odometry into {source} was added before")));
+        }
+        if chain.indices().any(|k| k > target.index && k < source.index) {
+            return Err(invalid(format!(
+                "odometry {target} -> {source} skips keyframes in between"
+            )));
+        }
+        let covariance = information
+            .try_inverse()
+            .ok_or_else(|| invalid(format!("odometry {target} -> {source}: singular information")))?;
+        chain.add_step(
+            source.index,
+            Step {
+                from: target.index,
+                from_from_to: measurement.target_from_source,
+                covariance,
+            },
+        );
+        Ok(())
+    }
+
+    fn add_loop(&mut self, closure: LoopClosure) -> PluginResult<()> {
+        if self.loops.contains_key(&closure.id) {
+            return Err(invalid(format!("{} was added before", closure.id)));
+        }
+        let information = self.check_measurement(
+            "loop",
+            closure.target,
+            closure.source,
+            &closure.target_from_source,
+            &closure.information,
+        )?;
+        self.loops.insert(
+            closure.id,
+            LoopClosure {
+                information,
+                ..closure
+            },
+        );
+        Ok(())
+    }
+
+    fn remove_loop(&mut self, id: LoopId) -> PluginResult<()> {
+        self.loops
+            .remove(&id)
+            .map(drop)
+            .ok_or_else(|| invalid(format!("{id} is not in the graph")))
+    }
+
+    fn optimize(&mut self, budget: OptimizeBudget) -> PluginResult<OptimizeReport> {
+        let scope = self.scope();
+        if self.poses.is_empty() {
+            return Ok(OptimizeReport {
+                converged: true,
+                ..OptimizeReport::default()
+            });
+        }
+        let loops = active_loops(&self.loops, scope);
+        if scope == Scope::Full {
+            // A centralised solve aligns every robot reachable from the first one.
+            if let Some(first) = self.poses.keys().next() {
+                self.aligned.insert(first.robot);
+            }
+        }
+        align_peers(&mut self.poses, &mut self.aligned, &loops);
+        let robust = self.config.robust != RobustMode::None;
+        let mut subgraph = build(&self.poses, &self.chains, &loops, scope, robust)?;
+        if self.config.init == Initialization::Chordal {
+            crate::chordal::chordal_3d(&mut subgraph.problem)?;
+        }
+        let settings = LmSettings {
+            max_iterations: budget.max_iterations,
+            max_duration: budget.max_duration.max(Duration::from_millis(1)),
+            relative_cost_tolerance: self.config.relative_tolerance,
+            ..LmSettings::default()
+        };
+        let report = if self.config.robust == RobustMode::Gnc {
+            let gnc = GncSettings {
+                threshold_squared: self.kernel.width * self.kernel.width,
+                mu_factor: 1.4,
+                max_outer_iterations: 100,
+                inner: settings,
+            };
+            let outcome = gnc_tls(&mut subgraph.problem, &gnc, &mut self.cache)?;
+            OptimizeReport {
+                iterations: outcome.total_iterations,
+                initial_cost: outcome.initial_cost,
+                final_cost: outcome.last.final_cost,
+                converged: outcome.last.converged(),
+            }
+        } else {
+            let outcome = optimize(&mut subgraph.problem, &self.kernel, &settings, &mut self.cache)?;
+            OptimizeReport {
+                iterations: outcome.iterations,
+                initial_cost: outcome.initial_cost,
+                final_cost: outcome.final_cost,
+                converged: outcome.converged(),
+            }
+        };
+        write_back(&mut self.poses, &self.chains, &subgraph, scope);
+        Ok(report)
+    }
+
+    fn graph(&self) -> &dyn GraphView {
+        self
+    }
+}
+
+impl GraphView for PgoBackend {
+    fn pose(&self, id: KeyframeId) -> Option<Pose> {
+        self.poses.get(&id).copied()
+    }
+
+    fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
+        self.chains.between(target, source)
+    }
+
+    fn keyframes(&self) -> Vec<KeyframeId> {
+        self.poses.keys().copied().collect()
+    }
+
+    fn loops(&self) -> Vec<LoopClosure> {
+        self.loops.values().cloned().collect()
+    }
+}
