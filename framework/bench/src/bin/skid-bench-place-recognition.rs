@@ -123,7 +123,10 @@ struct Row {
     mean_points_per_scan: usize,
 }
 
-fn variants(case: &Case) -> Result<Vec<(String, Box<dyn Descriptor>, usize)>> {
+/// A descriptor under test: its label, the plugin, and its size on the wire in bytes.
+type Variant = (String, Box<dyn Descriptor>, usize);
+
+fn variants(case: &Case) -> Result<Vec<Variant>> {
     let solid = |quantization| SolidConfig {
         lower_fov_deg: case.fov_deg.0,
         upper_fov_deg: case.fov_deg.1,

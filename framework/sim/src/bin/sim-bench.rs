@@ -16,7 +16,12 @@ fn thread_cpu_s() -> Option<f64> {
 }
 
 fn main() {
-    let mut args = std::env::args().skip(1);
+    // `cargo xtask bench sim` passes `--out DIR` to every profile; this one only prints its table.
+    let mut raw: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(at) = raw.iter().position(|a| a == "--out") {
+        raw.drain(at..(at + 2).min(raw.len()));
+    }
+    let mut args = raw.into_iter();
     let scans: u32 = args.next().and_then(|a| a.parse().ok()).unwrap_or(20);
     let names: Vec<String> = args.collect();
     let worlds: Vec<WorldKind> = {
