@@ -1,5 +1,7 @@
 //! The `pgo` back-end on a two-robot scene: peer alignment, the distributed subgraph, retraction.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test helpers fail loudly by design.
+
 use nalgebra::Vector3;
 use skid_backend_pgo::{PgoBackend, PgoConfig};
 use skid_core::slots::{Backend, LoopClosure, OdometryMeasurement, OptimizeBudget};

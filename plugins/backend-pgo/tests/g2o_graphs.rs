@@ -1,5 +1,7 @@
 //! Pose-graph optimisation on the shared benchmark graphs and on broken graphs.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test helpers fail loudly by design.
+
 use nalgebra::{Isometry2, Isometry3, Matrix3, Matrix6, Vector2, Vector3};
 use skid_backend_pgo::{
     Initialization, PgoError, PgoOptions, RobustMode, optimize_g2o_file, optimize_pose_graph,
