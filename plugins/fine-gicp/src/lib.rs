@@ -21,6 +21,18 @@
 //! clouds, no correspondence within the maximum distance, too few inliers, a singular Hessian, or no
 //! convergence within the iteration limit.
 //!
+//! Against small_gicp 1.0.1 on the real HDL-32E pair (0.25 m, 1.0 m, 10 neighbours, one thread, from the
+//! identity), GICP, VGICP and point-to-point ICP land on small_gicp's poses to 0.1 mm with the same
+//! linearisation and inlier counts. Point-to-plane ICP minimises the textbook residual `n·(q − T p)`
+//! (Low 2004, the method the paper cites); small_gicp's `PLANE_ICP` weights each axis apart (`n ∘ r`), so
+//! the two differ by about 1 cm and 0.1° there. small_gicp's multi-threaded downsampling also splits
+//! voxels at its 1,024-point block edges (6,230 points instead of 6,166 on that pair); ours does not, so
+//! the result is the same for every thread count.
+//!
+//! A guess far from the truth (1 m and 10° on sparse scans) can leave most points beyond the 1 m
+//! correspondence distance; `coarse_correspondence_m` (3 m, say) adds a first stage with a wider reach.
+//! It is off by default, as in small_gicp.
+//!
 //! The information matrix is the Hessian of the last linearisation (at most one step of under 0.1° and
 //! 1 mm, by default, from the returned pose), ordered translation first as the slot asks. Its scale is the
 //! variant's cost: squared metres for the ICPs, Mahalanobis distance under the regularised covariances for
