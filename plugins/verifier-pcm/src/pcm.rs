@@ -6,8 +6,10 @@
 //! Incremental update: adding one vertex `v` raises the maximum clique size by at most one, so when the
 //! current clique is exact it suffices to look for a clique of the current size inside `v`'s
 //! neighbourhood; if there is one, it and `v` replace the current clique (and the loops it leaves out are
-//! retracted), otherwise the current clique stays. When the exact search exceeds its budget the greedy
-//! heuristic is used (and the next update searches the whole graph again).
+//! retracted), otherwise the current clique stays. Two cheap cases come first: `v` consistent with the
+//! whole clique, or the clique's members consistent with `v` plus `v` extended greedily, reaching the
+//! current size plus one. When the exact search exceeds its budget the clique is no longer guaranteed
+//! maximum (reported as heuristic); later loops still grow it by the cheap cases.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -15,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::slots::GraphView;
 use skid_core::{LoopId, RobotId};
 
-use crate::clique::{Graph, heuristic_clique, max_clique, max_clique_within};
+use crate::clique::{Graph, extend_greedily, heuristic_clique, max_clique, max_clique_within};
 use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::lie::chi2_quantile;
 
@@ -160,21 +162,39 @@ impl Pcm {
             });
         }
         let budget = self.params.clique_search_budget;
-        if group.decided && group.exact {
-            let at_least = group.clique.len().saturating_sub(1);
-            match max_clique_within(&group.graph, group.graph.neighbours(v), at_least, budget) {
-                Ok(Some(mut found)) => {
-                    found.push(v);
-                    found.sort_unstable();
-                    group.clique = found;
-                }
-                Ok(None) => {}
-                Err(_) => {
-                    let heuristic = heuristic_clique(&group.graph);
-                    if heuristic.len() > group.clique.len() {
-                        group.clique = heuristic;
+        if group.decided {
+            // Adding `v` raises the maximum clique size by at most one, so a clique of the current size
+            // plus one that contains `v` is a maximum clique.
+            let target = group.clique.len() + 1;
+            let kept: Vec<usize> = group
+                .clique
+                .iter()
+                .copied()
+                .filter(|&u| group.graph.neighbours(v).contains(u))
+                .collect();
+            let mut order: Vec<usize> = (0..group.graph.len()).collect();
+            order.sort_by_key(|&u| (std::cmp::Reverse(group.graph.degree(u)), u));
+            let mut seed = kept;
+            seed.push(v);
+            let greedy = if seed.len() == target {
+                seed
+            } else {
+                extend_greedily(&group.graph, seed, &order)
+            };
+            if greedy.len() >= target {
+                let mut found = greedy;
+                found.sort_unstable();
+                group.clique = found;
+            } else if group.exact {
+                let at_least = group.clique.len().saturating_sub(1);
+                match max_clique_within(&group.graph, group.graph.neighbours(v), at_least, budget) {
+                    Ok(Some(mut found)) => {
+                        found.push(v);
+                        found.sort_unstable();
+                        group.clique = found;
                     }
-                    group.exact = false;
+                    Ok(None) => {}
+                    Err(_) => group.exact = false,
                 }
             }
         } else {
@@ -184,10 +204,7 @@ impl Pcm {
                     group.exact = true;
                 }
                 Err(_) => {
-                    let heuristic = heuristic_clique(&group.graph);
-                    if heuristic.len() > group.clique.len() || !group.decided {
-                        group.clique = heuristic;
-                    }
+                    group.clique = heuristic_clique(&group.graph);
                     group.exact = false;
                 }
             }
@@ -202,5 +219,185 @@ impl Pcm {
             group_size: group.loops.len(),
             exact: group.exact,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+    use skid_core::slots::{LoopClosure, RelativePose};
+    use skid_core::{Information, KeyframeId, Pose};
+
+    /// Two robots on gentle curves with exact odometry of small covariance.
+    struct Curves;
+
+    fn truth(id: KeyframeId) -> Pose {
+        let k = f64::from(id.index);
+        Pose::new(
+            Vector3::new(2.0 * k, 5.0 * f64::from(id.robot.0), 0.0),
+            Vector3::new(0.0, 0.0, 0.03 * k),
+        )
+    }
+
+    impl GraphView for Curves {
+        fn pose(&self, id: KeyframeId) -> Option<Pose> {
+            Some(truth(id))
+        }
+        fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
+            (target.robot == source.robot).then(|| RelativePose {
+                target_from_source: truth(target).inverse() * truth(source),
+                covariance: Information::identity() * 1e-5 * f64::from(target.index.abs_diff(source.index)),
+            })
+        }
+        fn keyframes(&self) -> Vec<KeyframeId> {
+            Vec::new()
+        }
+        fn loops(&self) -> Vec<LoopClosure> {
+            Vec::new()
+        }
+    }
+
+    fn pcm_loop(id: u64, target: KeyframeId, source: KeyframeId, error: Pose) -> PcmLoop {
+        aligned_loop(id, target, source, &Pose::identity(), error)
+    }
+
+    /// A loop measured as if robot 1's world were displaced by `world_error`, then perturbed by `error`.
+    fn aligned_loop(
+        id: u64,
+        target: KeyframeId,
+        source: KeyframeId,
+        world_error: &Pose,
+        error: Pose,
+    ) -> PcmLoop {
+        let closure = LoopClosure {
+            id: LoopId(id),
+            target,
+            source,
+            target_from_source: truth(target).inverse() * world_error * truth(source) * error,
+            information: Information::identity() * 1e4,
+        };
+        PcmLoop::from_closure(&closure).unwrap()
+    }
+
+    #[test]
+    fn a_consistent_wrong_pair_is_accepted_then_retracted() {
+        let mut pcm = Pcm::new(PcmParams {
+            min_loops_before_decision: 2,
+            ..PcmParams::default()
+        })
+        .unwrap();
+        let k = KeyframeId::new;
+        // Two wrong loops that agree with each other (both place robot 1 6 m too far along) come first.
+        let offset = Pose::new(Vector3::new(6.0, 0.0, 0.0), Vector3::zeros());
+        pcm.add(
+            aligned_loop(1, k(0, 2), k(1, 2), &offset, Pose::identity()),
+            &Curves,
+        )
+        .unwrap();
+        let first = pcm
+            .add(
+                aligned_loop(2, k(0, 4), k(1, 4), &offset, Pose::identity()),
+                &Curves,
+            )
+            .unwrap();
+        assert_eq!(first.accepted, vec![LoopId(1), LoopId(2)]);
+        // Three right loops outvote them: the clique changes and the wrong pair is retracted.
+        let mut retracted = Vec::new();
+        let mut accepted = BTreeSet::from([LoopId(1), LoopId(2)]);
+        for (id, index) in [(3, 6), (4, 8), (5, 10)] {
+            let update = pcm
+                .add(pcm_loop(id, k(0, index), k(1, index), Pose::identity()), &Curves)
+                .unwrap();
+            assert!(update.exact);
+            retracted.extend(update.retracted.iter().copied());
+            accepted.extend(update.accepted.iter().copied());
+            for r in &update.retracted {
+                accepted.remove(r);
+            }
+        }
+        assert_eq!(retracted, vec![LoopId(1), LoopId(2)]);
+        assert_eq!(accepted, BTreeSet::from([LoopId(3), LoopId(4), LoopId(5)]));
+        assert_eq!(pcm.accepted(), vec![LoopId(3), LoopId(4), LoopId(5)]);
+        assert!(
+            pcm.add(pcm_loop(5, k(0, 1), k(1, 1), Pose::identity()), &Curves)
+                .is_err(),
+            "duplicate id"
+        );
+    }
+
+    #[test]
+    fn intra_robot_loops_are_checked_in_their_own_group() {
+        let mut pcm = Pcm::new(PcmParams {
+            min_loops_before_decision: 3,
+            ..PcmParams::default()
+        })
+        .unwrap();
+        let k = KeyframeId::new;
+        let wrong = Pose::new(Vector3::new(0.0, 3.0, 0.0), Vector3::new(0.0, 0.0, 0.5));
+        let mut updates = Vec::new();
+        for (id, a, b, error) in [
+            (1, 0, 10, Pose::identity()),
+            (2, 3, 12, wrong),
+            (3, 5, 15, Pose::identity()),
+            (4, 7, 18, Pose::identity()),
+        ] {
+            updates.push(pcm.add(pcm_loop(id, k(1, a), k(1, b), error), &Curves).unwrap());
+        }
+        assert!(updates[0].pending && updates[1].pending);
+        assert_eq!(pcm.accepted(), vec![LoopId(1), LoopId(3), LoopId(4)]);
+        // An inter-robot loop starts a separate group and waits for its own decision.
+        let update = pcm
+            .add(pcm_loop(5, k(0, 3), k(1, 3), Pose::identity()), &Curves)
+            .unwrap();
+        assert!(update.pending && update.group_size == 1);
+    }
+
+    #[test]
+    fn the_incremental_clique_matches_a_full_solve() {
+        // Random consistency outcomes: the incremental clique is always as large as a fresh exact one.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut group = Graph::new(0);
+        let mut clique: Vec<usize> = Vec::new();
+        for v in 0..40 {
+            group.add_vertex();
+            for u in 0..v {
+                if next() % 100 < 70 {
+                    group.add_edge(u, v);
+                }
+            }
+            let kept: Vec<usize> = clique
+                .iter()
+                .copied()
+                .filter(|&u| group.neighbours(v).contains(u))
+                .collect();
+            let mut seed = kept;
+            seed.push(v);
+            if seed.len() == clique.len() + 1 {
+                clique = seed;
+            } else if let Some(mut found) = max_clique_within(
+                &group,
+                group.neighbours(v),
+                clique.len().saturating_sub(1),
+                u64::MAX,
+            )
+            .unwrap()
+            {
+                found.push(v);
+                clique = found;
+            }
+            assert!(group.is_clique(&clique));
+            assert_eq!(
+                clique.len(),
+                max_clique(&group, u64::MAX).unwrap().len(),
+                "after vertex {v}"
+            );
+        }
     }
 }
