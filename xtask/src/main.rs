@@ -70,11 +70,28 @@ fn ci() -> Result<()> {
     tidy()?;
     // Library and binary code: every warning denied, `unwrap` included.
     let mut clippy = cargo();
-    clippy.args(["clippy", "--workspace", "--lib", "--bins", "--examples", "--", "-D", "warnings"]);
+    clippy.args([
+        "clippy",
+        "--workspace",
+        "--lib",
+        "--bins",
+        "--examples",
+        "--",
+        "-D",
+        "warnings",
+    ]);
     run(clippy)?;
     // Tests: the same, except that tests (and their helper functions) may unwrap and expect.
     let mut clippy_tests = cargo();
-    clippy_tests.args(["clippy", "--workspace", "--tests", "--benches", "--", "-D", "warnings"]);
+    clippy_tests.args([
+        "clippy",
+        "--workspace",
+        "--tests",
+        "--benches",
+        "--",
+        "-D",
+        "warnings",
+    ]);
     clippy_tests.args(["-A", "clippy::unwrap_used", "-A", "clippy::expect_used"]);
     run(clippy_tests)?;
     let mut test = cargo();
