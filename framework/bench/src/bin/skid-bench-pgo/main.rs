@@ -2,7 +2,13 @@
 //! graphs, against GTSAM 4.3 Levenberg-Marquardt measured on the same machine (final cost in GTSAM's
 //! convention and time), and against SE-Sync's certified global optima (Rosen et al., IJRR 2019) from a
 //! chordal start on SE-Sync's isotropic re-weighting of each graph. Times are the optimising thread's
-//! CPU seconds (median of three runs; wall-clock alongside), as the machine is shared.
+//! CPU seconds (median of three runs; wall-clock alongside), as the machine is shared. Then the
+//! multi-robot PCM sets ([`multi_robot`]) and the wrong-loop robustness runs ([`outliers`]), each in its
+//! own table (`multi_robot/`, `outliers/` under the output folder). `SKID_BENCH_PGO_ONLY=solver|
+//! multi_robot|outliers` runs one section.
+
+mod multi_robot;
+mod outliers;
 
 use anyhow::{Context, Result};
 use clap::Parser;
@@ -247,9 +253,23 @@ fn se_sync_rows_2d(report: &mut Report, data: &std::path::Path) -> Result<()> {
 fn main() -> Result<()> {
     let args = BenchArgs::parse();
     let data = skid_io::data_dir().join("pose_graph_benchmarks");
-    let mut report = Report::new("pgo");
-    gtsam_rows(&mut report, &data)?;
-    se_sync_rows(&mut report, &data)?;
-    se_sync_rows_2d(&mut report, &data)?;
-    report.write(&args.out)
+    let only = std::env::var("SKID_BENCH_PGO_ONLY").unwrap_or_default();
+    if only.is_empty() || only == "solver" {
+        let mut report = Report::new("pgo");
+        gtsam_rows(&mut report, &data)?;
+        se_sync_rows(&mut report, &data)?;
+        se_sync_rows_2d(&mut report, &data)?;
+        report.write(&args.out)?;
+    }
+    if only.is_empty() || only == "multi_robot" {
+        let mut report = Report::new("pgo: multi-robot PCM sets");
+        multi_robot::rows(&mut report)?;
+        report.write(&args.out.join("multi_robot"))?;
+    }
+    if only.is_empty() || only == "outliers" {
+        let mut report = Report::new("pgo: wrong loop closures");
+        outliers::rows(&mut report, &data)?;
+        report.write(&args.out.join("outliers"))?;
+    }
+    Ok(())
 }
