@@ -54,4 +54,10 @@ pub const PROFILES: &[BenchProfile] = &[
         package: "skid-bench",
         binary: "skid-bench-ipc",
     },
+    BenchProfile {
+        name: "odometry",
+        summary: "kiss_icp odometry: ms per frame, fps, peak memory, ATE and drift on the real KITTI 00 frames and 500-scan simulated HDL-64E sequences",
+        package: "skid-bench",
+        binary: "skid-bench-odometry",
+    },
 ];
