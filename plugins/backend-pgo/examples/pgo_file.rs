@@ -12,6 +12,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--robust" => options.robust = RobustMode::parse(&args.next().unwrap_or_default())?,
             "--init" => options.init = Initialization::parse(&args.next().unwrap_or_default())?,
             "--out" => out = args.next(),
+            "--tolerance" => {
+                options.relative_tolerance = args.next().and_then(|v| v.parse().ok()).unwrap_or(1e-6)
+            }
             _ => path = Some(arg),
         }
     }

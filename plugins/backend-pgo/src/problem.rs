@@ -51,7 +51,8 @@ pub enum Unanchored {
     AnchorFirst,
 }
 
-/// Checks an information matrix: finite, symmetric within a tolerance, positive definite. Returns the
+/// Checks an information matrix: finite, symmetric to 1e-6 of its largest entry (Hessians accumulated in
+/// single precision pass), positive definite. Returns the
 /// symmetrised matrix or the reason it is unusable.
 pub fn check_information<const D: usize>(
     information: &SMatrix<f64, D, D>,
@@ -61,7 +62,7 @@ pub fn check_information<const D: usize>(
     }
     let scale = information.amax().max(f64::MIN_POSITIVE);
     let asymmetry = (information - information.transpose()).amax();
-    if asymmetry > 1e-9 * scale {
+    if asymmetry > 1e-6 * scale {
         return Err(format!(
             "the information matrix is not symmetric (largest difference {asymmetry:.3e})"
         ));

@@ -12,6 +12,8 @@ pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     skid_source_sim::register(registry)?;
     #[cfg(feature = "odometry-gt")]
     skid_odometry_gt::register(registry)?;
+    #[cfg(feature = "odometry-kiss")]
+    skid_odometry_kiss::register(registry)?;
     #[cfg(feature = "descriptor-solid")]
     skid_descriptor_solid::register(registry)?;
     #[cfg(feature = "descriptor-scan-context")]
@@ -26,8 +28,12 @@ pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     skid_fine_gicp::register(registry)?;
     #[cfg(feature = "verifier-pcm")]
     skid_verifier_pcm::register(registry)?;
+    #[cfg(feature = "backend-pgo")]
+    skid_backend_pgo::register(registry)?;
     #[cfg(feature = "transport-loopback")]
     skid_transport_loopback::register(registry)?;
+    #[cfg(feature = "transport-zenoh")]
+    skid_transport_zenoh::register(registry)?;
     // Keep the binding used when every feature is off.
     let _ = &registry;
     Ok(())
