@@ -56,10 +56,58 @@ pub enum DeployMode {
 }
 
 /// `[deploy]`: the process model.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DeploySection {
     pub mode: DeployMode,
+    /// Run only this robot of the fleet (0-based, below `run.robots`) in this process, in real time,
+    /// talking to its peers through the transport; unset runs the whole fleet.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub robot: Option<u32>,
+    /// Single-robot mode: how fast scans are played relative to their stamps (1 = real time, 2 = twice
+    /// as fast); 0 plays them as fast as the robot can process them.
+    pub playback_speed: f64,
+    /// Single-robot mode: seconds the robot keeps answering its peers after its source has ended, so
+    /// their late cloud requests and loops still get through.
+    pub linger_s: f64,
+}
+
+impl Default for DeploySection {
+    fn default() -> Self {
+        Self {
+            mode: DeployMode::default(),
+            robot: None,
+            playback_speed: 1.0,
+            linger_s: 5.0,
+        }
+    }
+}
+
+impl DeploySection {
+    /// Checks the section against the fleet size; the message names the offending key.
+    pub fn validate(&self, robots: u32) -> Result<(), String> {
+        if let Some(robot) = self.robot
+            && robot >= robots
+        {
+            return Err(format!(
+                "deploy.robot = {robot}, but the fleet has {robots} robot(s) (run.robots); expected 0 to {}",
+                robots.saturating_sub(1)
+            ));
+        }
+        if !(self.playback_speed.is_finite() && self.playback_speed >= 0.0) {
+            return Err(format!(
+                "deploy.playback_speed = {} must be finite and non-negative (0 = as fast as possible)",
+                self.playback_speed
+            ));
+        }
+        if !(self.linger_s.is_finite() && self.linger_s >= 0.0) {
+            return Err(format!(
+                "deploy.linger_s = {} must be finite and non-negative",
+                self.linger_s
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// `[loops]`: how the runtime turns descriptors into loop candidates and loops into graph updates.
@@ -146,5 +194,39 @@ impl RawConfig {
             Slot::Backend => self.backend.as_ref(),
             Slot::Transport => self.transport.as_ref(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn deploy_robot_must_be_in_the_fleet() {
+        let mut deploy = DeploySection::default();
+        assert_eq!(deploy.validate(3), Ok(()));
+        deploy.robot = Some(2);
+        assert_eq!(deploy.validate(3), Ok(()));
+        deploy.robot = Some(3);
+        let message = deploy.validate(3).unwrap_err();
+        assert!(
+            message.contains("deploy.robot = 3") && message.contains("0 to 2"),
+            "{message}"
+        );
+        deploy.robot = Some(0);
+        deploy.linger_s = -1.0;
+        assert!(deploy.validate(3).unwrap_err().contains("linger_s"));
+        deploy.linger_s = 1.0;
+        deploy.playback_speed = f64::NAN;
+        assert!(deploy.validate(3).unwrap_err().contains("playback_speed"));
+    }
+
+    #[test]
+    fn deploy_robot_is_omitted_when_unset() {
+        let shown = toml::to_string(&DeploySection::default()).unwrap();
+        assert!(!shown.contains("robot"), "{shown}");
+        let parsed: DeploySection = toml::from_str("robot = 1").unwrap();
+        assert_eq!(parsed.robot, Some(1));
+        assert_eq!(parsed.linger_s, 5.0);
     }
 }
