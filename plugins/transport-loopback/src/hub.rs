@@ -272,6 +272,28 @@ impl LoopbackHub {
         self.lock().isolated.remove(&robot);
     }
 
+    /// Puts raw bytes in `to`'s inbox as if `from` had sent them, due now, bypassing the link model and
+    /// the size limit: for fault tests (a peer sending malformed or oversized messages). Does nothing when
+    /// `to` is not attached.
+    pub fn inject(&self, from: RobotId, to: RobotId, payload: &[u8]) {
+        let mut state = self.lock();
+        let now = self.now_locked(&state);
+        let serial = state.next_serial;
+        state.next_serial += 1;
+        let Some(inbox) = state.inboxes.get_mut(&to) else {
+            return;
+        };
+        inbox.queue.push(Reverse(InFlight {
+            deliver_at_nanos: now,
+            serial,
+            sent_at_nanos: now,
+            from,
+            payload: Arc::from(payload),
+        }));
+        drop(state);
+        self.inner.arrived.notify_all();
+    }
+
     /// Per-link counters and latencies.
     pub fn stats(&self) -> HubStats {
         let state = self.lock();

@@ -262,6 +262,22 @@ fn oversized_and_self_sends_are_errors() {
 }
 
 #[test]
+fn injected_bytes_arrive_now_whatever_their_size() {
+    let hub = sim_hub(LinkModel::default(), 3);
+    let mut b = hub.endpoint(RobotId(1)).unwrap();
+    hub.advance_to(7 * MS);
+    let oversized = vec![0xA5; hub.config().max_message_bytes + 1];
+    hub.inject(RobotId(0), RobotId(1), &oversized);
+    hub.inject(RobotId(0), RobotId(1), b"garbage");
+    // Nobody is attached as robot 5: the bytes go nowhere and nothing fails.
+    hub.inject(RobotId(0), RobotId(5), b"lost");
+    let got = payloads(&mut b);
+    assert_eq!(got.len(), 2);
+    assert_eq!(got[0], (RobotId(0), oversized));
+    assert_eq!(got[1], (RobotId(0), b"garbage".to_vec()));
+}
+
+#[test]
 fn registry_robots_share_a_named_hub() {
     let mut registry = Registry::new();
     register(&mut registry).unwrap();
