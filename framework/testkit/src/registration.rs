@@ -55,7 +55,11 @@ pub fn check_fine(
             translation_m <= expect.max_translation_error_m && rotation_deg <= expect.max_rotation_error_deg,
             "case {case}: off by {translation_m:.3} m, {rotation_deg:.3}°"
         );
-        assert!(result.converged, "case {case}: converged");
+        assert!(result.converged, "case {case}: converged ({:?})", result.failure);
+        assert!(
+            result.failure.is_none(),
+            "case {case}: a converged result carries no failure"
+        );
         assert!(
             result.information.iter().all(|v| v.is_finite()),
             "finite information"
@@ -80,6 +84,10 @@ pub fn check_fine(
                 "degenerate case {case} must not claim convergence"
             );
             assert!(
+                result.failure.as_deref().is_some_and(|reason| !reason.is_empty()),
+                "degenerate case {case} must say why it did not converge"
+            );
+            assert!(
                 result
                     .target_from_source
                     .translation
@@ -93,8 +101,8 @@ pub fn check_fine(
     let result = registration.refine(&prepared_target, &prepared_source, &far);
     if let Ok(result) = result {
         assert!(
-            !result.converged,
-            "no correspondences within the maximum distance: not converged"
+            !result.converged && result.failure.is_some(),
+            "no correspondences within the maximum distance: not converged, with a reason"
         );
         assert!(
             result

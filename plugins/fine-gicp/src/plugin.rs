@@ -115,8 +115,10 @@ impl fmt::Display for Failure {
 #[derive(Clone, Debug)]
 pub struct RefineReport {
     pub alignment: FineAlignment,
-    /// `Some` exactly when `alignment.converged` is false.
+    /// `Some` exactly when `alignment.converged` is false (`alignment.failure` holds its sentence).
     pub failure: Option<Failure>,
+    /// Linearisations of the coarse stage, included in `alignment.iterations`.
+    pub coarse_iterations: usize,
     /// Wall-clock time of the optimisation, in milliseconds.
     pub align_ms: f64,
 }
@@ -183,8 +185,10 @@ impl GicpRegistration {
                 inlier_count: 0,
                 inlier_ratio: 0.0,
                 error: 0.0,
+                failure: Some(failure.to_string()),
             },
             failure: Some(failure),
+            coarse_iterations: 0,
             align_ms: start.elapsed().as_secs_f64() * 1e3,
         };
         for (role, data) in [(Role::Target, target_data), (Role::Source, source_data)] {
@@ -197,44 +201,59 @@ impl GicpRegistration {
             }
         }
         let offsets = search_offsets(config.voxel_search_offsets);
-        let problem = |variant, distance: f64| Problem {
+        let problem = |variant, target, source, distance: f64| Problem {
             variant,
-            target: target_data,
-            source: source_data,
+            target,
+            source,
             max_sq_distance: distance * distance,
             voxel_offsets: &offsets,
         };
-        let solution = self.pool.install(|| {
-            if config.coarse_correspondence_m > config.max_correspondence_m {
+        let (solution, coarse_iterations) = self.pool.install(|| {
+            let mut start = *guess;
+            let mut coarse_iterations = 0;
+            if config.coarse_correspondence_m > 0.0 {
+                // The coarse levels when prepared (else the fine points), with a wider reach. VGICP's voxel
+                // map reaches only neighbouring voxels, so its first stage is GICP on points.
+                let (coarse_target, coarse_source) = match (&target_data.coarse, &source_data.coarse) {
+                    (Some(target), Some(source)) => (&**target, &**source),
+                    _ => (target_data, source_data),
+                };
                 let coarse_variant = if config.variant == Variant::Vgicp {
                     Variant::Gicp
                 } else {
                     config.variant
                 };
                 let coarse = solver::solve(
-                    &problem(coarse_variant, config.coarse_correspondence_m),
+                    &problem(
+                        coarse_variant,
+                        coarse_target,
+                        coarse_source,
+                        config.coarse_correspondence_m,
+                    ),
                     guess,
                     config,
+                    config.coarse_max_iterations,
                 );
-                let start = if solution_is_finite(&coarse) {
-                    coarse.pose
-                } else {
-                    *guess
-                };
-                let mut fine = solver::solve(
-                    &problem(config.variant, config.max_correspondence_m),
-                    &start,
-                    config,
-                );
-                fine.iterations += coarse.iterations;
-                fine
-            } else {
-                solver::solve(
-                    &problem(config.variant, config.max_correspondence_m),
-                    guess,
-                    config,
-                )
+                coarse_iterations = coarse.iterations;
+                // A coarse stage that found nothing to hold on to (tiny coarse levels, a guess out of
+                // reach) leaves the guess to the final stage.
+                if solution_is_finite(&coarse) && coarse.inliers >= config.min_inliers.max(1) {
+                    start = coarse.pose;
+                }
             }
+            let mut fine = solver::solve(
+                &problem(
+                    config.variant,
+                    target_data,
+                    source_data,
+                    config.max_correspondence_m,
+                ),
+                &start,
+                config,
+                config.max_iterations,
+            );
+            fine.iterations += coarse_iterations;
+            (fine, coarse_iterations)
         });
         if !solution_is_finite(&solution) {
             return Ok(unmoved(Failure::NumericalFailure));
@@ -249,8 +268,10 @@ impl GicpRegistration {
                 inlier_count: solution.inliers,
                 inlier_ratio: solution.inliers as f64 / source_data.len() as f64,
                 error: solution.error,
+                failure: failure.as_ref().map(Failure::to_string),
             },
             failure,
+            coarse_iterations,
             align_ms: start.elapsed().as_secs_f64() * 1e3,
         })
     }

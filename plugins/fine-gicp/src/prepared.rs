@@ -1,6 +1,7 @@
 //! What `prepare` computes for one cloud and caches in `PreparedCloud::cache`: the downsampled points, the
 //! kd-tree, per-point covariances and normals, the Gaussian voxel map (VGICP), the cloud's principal
-//! extents, and how long each stage took.
+//! extents, the same (without a voxel map) for the coarse level of the coarse-to-fine schedule, and how
+//! long each stage took.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -27,6 +28,8 @@ pub struct PrepareTimings {
     pub covariance_ms: f64,
     /// The Gaussian voxel map (VGICP only).
     pub voxel_map_ms: f64,
+    /// The coarse level: downsampling, tree and covariances (zero without one).
+    pub coarse_ms: f64,
     pub total_ms: f64,
 }
 
@@ -42,6 +45,9 @@ pub struct PreparedData {
     pub(crate) voxel_map: Option<GaussianVoxelMap>,
     /// Standard deviations along the principal axes, ascending.
     pub(crate) extents: [f64; 3],
+    /// The coarse level (the points downsampled again, with their own tree and covariances but no voxel
+    /// map), when the configuration asks for one.
+    pub(crate) coarse: Option<Box<PreparedData>>,
     pub(crate) timings: PrepareTimings,
 }
 
@@ -63,6 +69,11 @@ impl PreparedData {
     /// How long each preparation stage took.
     pub fn timings(&self) -> PrepareTimings {
         self.timings
+    }
+
+    /// Number of points of the coarse level, if there is one.
+    pub fn coarse_len(&self) -> Option<usize> {
+        self.coarse.as_ref().map(|level| level.len())
     }
 
     /// Number of Gaussian voxels (VGICP), else 0.
@@ -94,11 +105,33 @@ pub(crate) fn prepare(config: &GicpConfig, cloud: CloudView<'_>) -> PluginResult
             points.len()
         )));
     }
-    let mut timings = PrepareTimings {
-        downsample_ms: elapsed_ms(start),
-        ..PrepareTimings::default()
-    };
+    let downsample_ms = elapsed_ms(start);
+    let mut data = prepare_level(config, points, true);
+    data.timings.downsample_ms = downsample_ms;
 
+    if let Some(coarse_m) = config.coarse_level_m() {
+        let stage = Instant::now();
+        let coarse_points = voxel::downsample(&data.points, coarse_m);
+        data.coarse = Some(Box::new(prepare_level(config, coarse_points, false)));
+        data.timings.coarse_ms = elapsed_ms(stage);
+    }
+    data.timings.total_ms = elapsed_ms(start);
+
+    let public = Cloud::new(
+        data.points
+            .iter()
+            .map(|p| Point::new(p.x as f32, p.y as f32, p.z as f32))
+            .collect(),
+    );
+    Ok(PreparedCloud {
+        cloud: Arc::new(public),
+        cache: Arc::new(data),
+    })
+}
+
+/// The tree, local features, voxel map (for VGICP when `with_voxel_map`) and extents of one level.
+fn prepare_level(config: &GicpConfig, points: Vec<Vector3<f64>>, with_voxel_map: bool) -> PreparedData {
+    let mut timings = PrepareTimings::default();
     let stage = Instant::now();
     let tree = PointTree::build(&points);
     timings.tree_ms = elapsed_ms(stage);
@@ -115,19 +148,11 @@ pub(crate) fn prepare(config: &GicpConfig, cloud: CloudView<'_>) -> PluginResult
     timings.covariance_ms = elapsed_ms(stage);
 
     let stage = Instant::now();
-    let voxel_map = (config.variant == Variant::Vgicp)
+    let voxel_map = (with_voxel_map && config.variant == Variant::Vgicp)
         .then(|| GaussianVoxelMap::build(&points, &covariances, config.voxel_resolution_m));
     let extents = features::principal_extents(&points);
     timings.voxel_map_ms = elapsed_ms(stage);
-    timings.total_ms = elapsed_ms(start);
-
-    let public = Cloud::new(
-        points
-            .iter()
-            .map(|p| Point::new(p.x as f32, p.y as f32, p.z as f32))
-            .collect(),
-    );
-    let data = PreparedData {
+    PreparedData {
         key: config.preparation_key(),
         points,
         tree,
@@ -135,12 +160,9 @@ pub(crate) fn prepare(config: &GicpConfig, cloud: CloudView<'_>) -> PluginResult
         normals,
         voxel_map,
         extents,
+        coarse: None,
         timings,
-    };
-    Ok(PreparedCloud {
-        cloud: Arc::new(public),
-        cache: Arc::new(data),
-    })
+    }
 }
 
 /// The plugin data of a prepared cloud, checked to have been prepared with `config`'s settings.

@@ -235,8 +235,14 @@ pub(crate) struct Solution {
     pub converged: bool,
 }
 
-/// Minimises the problem's cost from `guess` with Levenberg-Marquardt.
-pub(crate) fn solve(problem: &Problem<'_>, guess: &Isometry3<f64>, config: &GicpConfig) -> Solution {
+/// Minimises the problem's cost from `guess` with Levenberg-Marquardt, in at most `max_iterations`
+/// linearisations.
+pub(crate) fn solve(
+    problem: &Problem<'_>,
+    guess: &Isometry3<f64>,
+    config: &GicpConfig,
+    max_iterations: usize,
+) -> Solution {
     let rotation_eps = config.rotation_eps_deg.to_radians();
     let mut links = vec![Link::NONE; problem.source.points.len()];
     let mut lambda = config.lambda_init;
@@ -248,7 +254,7 @@ pub(crate) fn solve(problem: &Problem<'_>, guess: &Isometry3<f64>, config: &Gicp
         inliers: 0,
         converged: false,
     };
-    while solution.iterations < config.max_iterations && !solution.converged {
+    while solution.iterations < max_iterations && !solution.converged {
         let system = problem.linearize(&solution.pose, &mut links);
         solution.iterations += 1;
         solution.hessian = system.h;

@@ -3,9 +3,10 @@
 //! input.
 //!
 //! The synthetic scans are sparse (30,000 random surface samples within 60 m, mostly gently rolling
-//! ground), so a 10° guess moves most points well beyond the 1 m correspondence distance: every variant
-//! runs with a 3 m coarse stage here, and point-to-point ICP, which converges linearly, with 100
-//! linearisations per stage.
+//! ground), so a 10° guess moves most points well beyond the 1 m correspondence distance; every variant
+//! runs at its defaults, whose coarse-to-fine stage (1 m level, 4 m reach) brings them in. Point-to-point
+//! ICP, which converges only linearly and is biased on fresh random samples, still needs more than the
+//! final stage's 20 linearisations here to come within 5 cm (it stops 14 cm off); it runs with 100.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // Test helpers fail loudly by design.
 
@@ -26,32 +27,25 @@ fn check(config: GicpConfig) {
     check_fine(&mut registration, 1.0, 10.0, expect);
 }
 
-fn with_coarse_stage(variant: Variant) -> GicpConfig {
-    GicpConfig {
-        coarse_correspondence_m: 3.0,
-        ..GicpConfig::with_variant(variant)
-    }
-}
-
 #[test]
 fn gicp_conforms() {
-    check(with_coarse_stage(Variant::Gicp));
+    check(GicpConfig::with_variant(Variant::Gicp));
 }
 
 #[test]
 fn vgicp_conforms() {
-    check(with_coarse_stage(Variant::Vgicp));
+    check(GicpConfig::with_variant(Variant::Vgicp));
 }
 
 #[test]
 fn icp_conforms() {
     check(GicpConfig {
         max_iterations: 100,
-        ..with_coarse_stage(Variant::Icp)
+        ..GicpConfig::with_variant(Variant::Icp)
     });
 }
 
 #[test]
 fn plane_icp_conforms() {
-    check(with_coarse_stage(Variant::PlaneIcp));
+    check(GicpConfig::with_variant(Variant::PlaneIcp));
 }

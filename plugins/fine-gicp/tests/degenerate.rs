@@ -42,6 +42,10 @@ fn register(variant: Variant, target: &Cloud, source: &Cloud, guess: &Pose) -> R
     let report = registration.refine_report(&target, &source, guess).unwrap();
     assert_finite(&report.alignment);
     assert_eq!(report.alignment.converged, report.failure.is_none());
+    assert_eq!(
+        report.alignment.failure,
+        report.failure.as_ref().map(ToString::to_string)
+    );
     report
 }
 

@@ -1,6 +1,7 @@
 //! The real HDL-32E scan pair of `shared/data/lidar_scan_pair_fast_gicp`: every variant lands on the
-//! reference relative poses, GICP on small_gicp's own result, every variant recovers a known transform
-//! from guesses perturbed by 1 m and 10°, and results do not depend on the thread count.
+//! reference relative poses, GICP on small_gicp's own result (with small_gicp's single stage and with our
+//! default coarse-to-fine stage), every variant recovers a known transform from guesses perturbed by 1 m
+//! and 10° at its default settings, and results do not depend on the thread count.
 //!
 //! `T_target_source` in the data folder maps source points into the target frame, i.e. it is our
 //! `target_from_source`. The scans are organised, with (0, 0, 0) for "no return": read with VALID_ONLY.
@@ -90,9 +91,15 @@ fn worst_reference_error(pose: &Pose) -> (f64, f64) {
 
 #[test]
 fn gicp_lands_on_small_gicps_own_result() {
-    let mut registration = plugin(GicpConfig::default(), 1);
+    // small_gicp's settings: the fine stage alone.
+    let single_stage = GicpConfig {
+        coarse_correspondence_m: 0.0,
+        ..GicpConfig::default()
+    };
+    let mut registration = plugin(single_stage, 1);
     let target = prepare(&mut registration, &pair().target);
     let source = prepare(&mut registration, &pair().source);
+    assert!(prepared_data(&target).unwrap().coarse_len().is_none());
     let report = registration
         .refine_report(&target, &source, &Pose::identity())
         .unwrap();
@@ -104,10 +111,11 @@ fn gicp_lands_on_small_gicps_own_result() {
         "{translation_m:.4} m, {rotation_deg:.4}° from small_gicp"
     );
     assert!(
-        alignment.converged && report.failure.is_none(),
+        alignment.converged && report.failure.is_none() && alignment.failure.is_none(),
         "{:?}",
         report.failure
     );
+    assert_eq!(report.coarse_iterations, 0);
     assert!(
         alignment.iterations <= 4,
         "{} linearisations (small_gicp: 3)",
@@ -130,6 +138,27 @@ fn gicp_lands_on_small_gicps_own_result() {
         information.symmetric_eigenvalues().min() > 0.0,
         "positive definite information"
     );
+
+    // The default coarse-to-fine schedule ends on the same minimum.
+    let mut registration = plugin(GicpConfig::default(), 1);
+    let target = prepare(&mut registration, &pair().target);
+    let source = prepare(&mut registration, &pair().source);
+    let coarse_points = prepared_data(&source).unwrap().coarse_len().unwrap();
+    assert!(
+        coarse_points > 100 && coarse_points * 3 < source.cloud.len(),
+        "{coarse_points} coarse points of {}",
+        source.cloud.len()
+    );
+    let report = registration
+        .refine_report(&target, &source, &Pose::identity())
+        .unwrap();
+    let (translation_m, rotation_deg) =
+        pose_error(&pair().small_gicp_computed, &report.alignment.target_from_source);
+    assert!(
+        translation_m < 0.005 && rotation_deg < 0.05,
+        "coarse-to-fine: {translation_m:.4} m, {rotation_deg:.4}° from small_gicp"
+    );
+    assert!(report.alignment.converged && report.coarse_iterations > 0);
 }
 
 #[test]
@@ -176,10 +205,10 @@ fn perturbations() -> Vec<Pose> {
         .collect()
 }
 
-/// Registers the pair with the source moved by a known transform, from perturbed guesses, and checks the
-/// recovered pose against the references (moved the same way). `tolerance_deg` is the variant's accuracy.
-fn check_recovers_known_transform(config: GicpConfig, tolerance_deg: f64) {
-    let variant = config.variant;
+/// Registers the pair with the source moved by a known transform, from perturbed guesses, and returns,
+/// per guess, whether it converged and what the recovered pose's (translation m, rotation °) error
+/// against the farther reference (moved the same way) is.
+fn recoveries(config: GicpConfig) -> Vec<(bool, f64, f64)> {
     let mut registration = plugin(config, 2);
     // Express the source in a frame 4 m and 30° away: the truth becomes reference · moved_from_source⁻¹.
     let moved_from_source = Pose::new(Vector3::new(3.0, -2.0, 0.5), Vector3::new(0.05, -0.02, 0.5));
@@ -188,18 +217,30 @@ fn check_recovers_known_transform(config: GicpConfig, tolerance_deg: f64) {
         .transformed(&moved_from_source);
     let target = prepare(&mut registration, &pair().target);
     let source = prepare(&mut registration, &moved.points);
-    for (case, perturbation) in perturbations().iter().enumerate() {
-        let truth = pair().small_gicp_computed * moved_from_source.inverse();
-        let report = registration
-            .refine_report(&target, &source, &(truth * perturbation))
-            .unwrap();
-        let recovered = report.alignment.target_from_source * moved_from_source;
-        let (translation_m, rotation_deg) = worst_reference_error(&recovered);
-        assert!(
-            report.alignment.converged,
-            "{variant} case {case}: {:?}",
-            report.failure
-        );
+    let truth = pair().small_gicp_computed * moved_from_source.inverse();
+    perturbations()
+        .iter()
+        .map(|perturbation| {
+            let report = registration
+                .refine_report(&target, &source, &(truth * perturbation))
+                .unwrap();
+            assert_eq!(
+                report.alignment.failure,
+                report.failure.as_ref().map(ToString::to_string)
+            );
+            let recovered = report.alignment.target_from_source * moved_from_source;
+            let (translation_m, rotation_deg) = worst_reference_error(&recovered);
+            (report.alignment.converged, translation_m, rotation_deg)
+        })
+        .collect()
+}
+
+/// Checks that every perturbed guess converges to within 5 cm and `tolerance_deg` (the variant's
+/// accuracy) of both references.
+fn check_recovers_known_transform(config: GicpConfig, tolerance_deg: f64) {
+    let variant = config.variant;
+    for (case, (converged, translation_m, rotation_deg)) in recoveries(config).into_iter().enumerate() {
+        assert!(converged, "{variant} case {case}: not converged");
         assert!(
             translation_m < 0.05 && rotation_deg < tolerance_deg,
             "{variant} case {case}: {translation_m:.3} m, {rotation_deg:.3}° from a reference"
@@ -208,40 +249,44 @@ fn check_recovers_known_transform(config: GicpConfig, tolerance_deg: f64) {
 }
 
 #[test]
-fn gicp_recovers_from_1m_10deg_with_defaults() {
+fn gicp_recovers_from_1m_10deg_at_defaults() {
     check_recovers_known_transform(GicpConfig::default(), 0.5);
 }
 
 #[test]
-fn plane_icp_recovers_from_1m_10deg() {
-    // Point-to-plane ICP on 0.25 m centroids has a second minimum 0.4° from its best, 0.6° from one
-    // reference (which are themselves 0.23° apart).
+fn vgicp_recovers_from_1m_10deg_at_defaults() {
+    // Without the coarse stage VGICP's 1 m voxels miss some of these guesses: its correspondences reach
+    // only the voxel holding a point.
+    check_recovers_known_transform(GicpConfig::with_variant(Variant::Vgicp), 0.5);
+}
+
+#[test]
+fn icp_recovers_from_1m_10deg_at_defaults() {
+    check_recovers_known_transform(GicpConfig::with_variant(Variant::Icp), 0.5);
+}
+
+#[test]
+fn plane_icp_recovers_from_1m_10deg_at_defaults() {
+    // Point-to-plane ICP on 0.25 m centroids has two minima about 0.26° apart whose costs differ by 0.1%
+    // (a flat valley, not a convergence failure: tighter epsilons and more iterations stay put); the
+    // farther one is 0.65° from one reference (the references are themselves 0.23° apart).
     check_recovers_known_transform(GicpConfig::with_variant(Variant::PlaneIcp), 0.75);
 }
 
 #[test]
-fn icp_recovers_from_1m_10deg_given_iterations() {
-    // Point-to-point ICP converges linearly (20 linearisations do not reach a 10° start) and its cost on
-    // 0.25 m centroids has a minimum 1.05° from one reference: the least accurate of the four, as in the
-    // paper's registration table.
+fn the_coarse_stage_widens_the_basin() {
+    // The same perturbations at small_gicp's single stage: VGICP fails some of them.
     let config = GicpConfig {
-        max_iterations: 100,
-        ..GicpConfig::with_variant(Variant::Icp)
+        coarse_correspondence_m: 0.0,
+        ..GicpConfig::with_variant(Variant::Vgicp)
     };
-    check_recovers_known_transform(config, 1.25);
-}
-
-#[test]
-fn every_variant_recovers_with_a_coarse_stage() {
-    // VGICP's 1 m voxels alone miss some 10° guesses (its correspondences reach one voxel); a 3 m coarse
-    // stage brings every variant in.
-    for variant in [Variant::Gicp, Variant::Vgicp, Variant::PlaneIcp] {
-        let config = GicpConfig {
-            coarse_correspondence_m: 3.0,
-            ..GicpConfig::with_variant(variant)
-        };
-        check_recovers_known_transform(config, if variant == Variant::PlaneIcp { 0.75 } else { 0.5 });
-    }
+    let failed = recoveries(config)
+        .into_iter()
+        .filter(|&(converged, translation_m, rotation_deg)| {
+            !(converged && translation_m < 0.05 && rotation_deg < 0.5)
+        })
+        .count();
+    assert!(failed > 0, "single-stage VGICP recovered every 10° guess");
 }
 
 #[test]

@@ -60,6 +60,9 @@ pub struct FineAlignment {
     pub inlier_ratio: f64,
     /// Final value of the plugin's cost.
     pub error: f64,
+    /// Why the alignment did not converge (for example "not converged after 20 iterations", a singular
+    /// Hessian, too few correspondences), as a sentence for logs and reports; `None` when `converged`.
+    pub failure: Option<String>,
 }
 
 /// Refines an alignment from an initial guess.
