@@ -62,6 +62,46 @@ fn build<T: ?Sized + 'static>(
         })
 }
 
+/// Builds one robot's host: robot `robot` of a fleet of `run.robots`, with the whole host's thread
+/// budget (in lockstep only one robot runs at a time) and protocol session number `session`.
+pub(crate) fn build_host(
+    config: &ResolvedConfig,
+    registry: &Registry,
+    robot: RobotId,
+    session: u32,
+) -> Result<RobotHost, RuntimeError> {
+    let threads = if config.run.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        config.run.threads
+    };
+    let context = PluginContext {
+        robot,
+        fleet_size: config.run.robots,
+        threads: threads.max(1),
+        seed: config.run.seed,
+        output_dir: Some(config.run.output_dir.join(&config.run.name)),
+    };
+    let source = build(&registry.source, config, &context)?.ok_or_else(|| RuntimeError::Plugin {
+        robot,
+        slot: Slot::Source,
+        plugin: "none".into(),
+        source: PluginError::InvalidInput("a source is required".into()),
+    })?;
+    let plugins = Plugins {
+        source,
+        odometry: build(&registry.odometry, config, &context)?,
+        descriptor: build(&registry.descriptor, config, &context)?,
+        coarse: build(&registry.coarse, config, &context)?,
+        fine: build(&registry.fine, config, &context)?,
+        verifier: build(&registry.verifier, config, &context)?,
+        backend: build(&registry.backend, config, &context)?,
+        transport: build(&registry.transport, config, &context)?,
+    };
+    let protocol = ProtocolEndpoint::new(robot, session, ProtocolConfig::default());
+    Ok(RobotHost::new(robot, plugins, protocol))
+}
+
 /// Rounds of message delivery after each step, so a request and its reply complete within one step.
 const DELIVERY_ROUNDS: usize = 4;
 
@@ -70,44 +110,13 @@ impl Fleet {
     /// use all of it, since only one robot runs at a time.
     pub fn build(mut config: ResolvedConfig, registry: &Registry) -> Result<Self, RuntimeError> {
         let hub_name = isolate_loopback_hub(&mut config);
-        let robots_total = config.run.robots;
-        let threads = if config.run.threads == 0 {
-            std::thread::available_parallelism().map_or(1, |n| n.get())
-        } else {
-            config.run.threads
-        };
         let mut robots = Vec::new();
-        for index in 0..robots_total {
-            let robot = RobotId(index);
-            let context = PluginContext {
-                robot,
-                fleet_size: robots_total,
-                threads: threads.max(1),
-                seed: config.run.seed,
-                output_dir: Some(config.run.output_dir.join(&config.run.name)),
-            };
-            let source = build(&registry.source, &config, &context)?.ok_or_else(|| RuntimeError::Plugin {
-                robot,
-                slot: Slot::Source,
-                plugin: "none".into(),
-                source: PluginError::InvalidInput("a source is required".into()),
-            })?;
-            let plugins = Plugins {
-                source,
-                odometry: build(&registry.odometry, &config, &context)?,
-                descriptor: build(&registry.descriptor, &config, &context)?,
-                coarse: build(&registry.coarse, &config, &context)?,
-                fine: build(&registry.fine, &config, &context)?,
-                verifier: build(&registry.verifier, &config, &context)?,
-                backend: build(&registry.backend, &config, &context)?,
-                transport: build(&registry.transport, &config, &context)?,
-            };
+        for index in 0..config.run.robots {
             // Lockstep runs must reproduce bit for bit, so the session number comes from the seed.
             let session = (config.run.seed as u32)
                 .wrapping_mul(2_654_435_761)
                 .wrapping_add(index);
-            let protocol = ProtocolEndpoint::new(robot, session, ProtocolConfig::default());
-            robots.push(RobotHost::new(robot, plugins, protocol));
+            robots.push(build_host(&config, registry, RobotId(index), session)?);
         }
         let hub = hub_name.and_then(|name| skid_transport_loopback::LoopbackHub::find(&name));
         Ok(Self { config, robots, hub })
@@ -188,7 +197,7 @@ impl Fleet {
 
 /// Encodes and sends messages from `robot` to their destinations. A send that fails (link down,
 /// oversized) is logged: a robot never stops because a peer cannot be reached.
-fn send_all(robot: &mut RobotHost, messages: Vec<Message>) {
+pub(crate) fn send_all(robot: &mut RobotHost, messages: Vec<Message>) {
     let Some(transport) = robot.plugins.transport.as_mut() else {
         return;
     };
@@ -206,7 +215,17 @@ fn send_all(robot: &mut RobotHost, messages: Vec<Message>) {
 }
 
 /// Receives and handles everything waiting for `robot`; returns how many messages it handled.
-fn deliver_to(robot: &mut RobotHost, config: &ResolvedConfig) -> Result<usize, RuntimeError> {
+pub(crate) fn deliver_to(robot: &mut RobotHost, config: &ResolvedConfig) -> Result<usize, RuntimeError> {
+    deliver_filtered(robot, config, |_| true)
+}
+
+/// [`deliver_to`], with `keep` seeing (and possibly editing) every new message before it is handled;
+/// a message for which it returns false is dropped.
+pub(crate) fn deliver_filtered(
+    robot: &mut RobotHost,
+    config: &ResolvedConfig,
+    mut keep: impl FnMut(&mut skid_protocol::Received) -> bool,
+) -> Result<usize, RuntimeError> {
     let Some(transport) = robot.plugins.transport.as_mut() else {
         return Ok(0);
     };
@@ -222,7 +241,10 @@ fn deliver_to(robot: &mut RobotHost, config: &ResolvedConfig) -> Result<usize, R
     let mut replies = Vec::new();
     for datagram in datagrams {
         match robot.protocol.receive(datagram.from, &datagram.payload) {
-            Ok(Incoming::Message(received)) => {
+            Ok(Incoming::Message(mut received)) => {
+                if !keep(&mut received) {
+                    continue;
+                }
                 robot.handle_message(config, datagram.from, received.message, &mut replies, &mut outbox)?;
             }
             Ok(Incoming::Dropped { .. }) => {}

@@ -9,6 +9,7 @@
 //! and delivers their messages through the configured transport; outputs go to
 //! `<output_dir>/<run name>/`.
 
+mod catchup;
 mod fleet;
 mod graph;
 mod host;
@@ -16,12 +17,14 @@ mod loops;
 mod outputs;
 mod peers;
 mod settings;
+mod single;
 mod summary;
 
 pub use fleet::Fleet;
 pub use graph::HostGraph;
 pub use host::{LoopStats, Plugins, RobotHost, ScanRecord};
 pub use outputs::write_outputs;
+pub use single::{SingleRobot, SingleRobotError};
 pub use summary::{RobotSummary, RunSummary};
 
 /// What can stop a run.

@@ -253,8 +253,52 @@ impl RobotHost {
         Ok(())
     }
 
-    /// Adds one peer keyframe (and its odometry edge from the previous one, when consecutive).
+    /// Adds one peer keyframe (and its odometry edge from the previous one, when consecutive). Earlier
+    /// keyframes that the odometry chain knows but the back-end does not (their own chain message was lost
+    /// or overtaken) are added first, so the peer's keyframes stay joined.
     pub(crate) fn add_peer_keyframe(
+        &mut self,
+        config: &ResolvedConfig,
+        id: KeyframeId,
+        guess: Pose,
+        previous: Option<(u32, Pose, Pose)>,
+    ) -> Result<(), RuntimeError> {
+        if self.plugins.backend.is_none() || self.in_backend.contains(&id) {
+            return Ok(());
+        }
+        let of_peer = |index| KeyframeId {
+            robot: id.robot,
+            index,
+        };
+        let mut missing = Vec::new();
+        let mut index = id.index;
+        while let Some(earlier) = index.checked_sub(1) {
+            if self.in_backend.contains(&of_peer(earlier)) {
+                break;
+            }
+            let Some(pose) = self.chains.pose(of_peer(earlier)) else {
+                break;
+            };
+            missing.push((earlier, pose));
+            index = earlier;
+        }
+        let frame = self
+            .peer_frames
+            .get(&id.robot)
+            .copied()
+            .unwrap_or_else(Pose::identity);
+        for (earlier, pose) in missing.into_iter().rev() {
+            let before = earlier
+                .checked_sub(1)
+                .and_then(|i| self.chains.pose(of_peer(i)).map(|p| (i, p, pose)));
+            self.add_linked_peer_keyframe(config, of_peer(earlier), frame * pose, before)?;
+        }
+        self.add_linked_peer_keyframe(config, id, guess, previous)
+    }
+
+    /// Adds one peer keyframe, with the odometry edge from `previous` when that keyframe is the one just
+    /// before and is in the back-end.
+    fn add_linked_peer_keyframe(
         &mut self,
         config: &ResolvedConfig,
         id: KeyframeId,
@@ -269,15 +313,22 @@ impl RobotHost {
             plugin: plugin.clone(),
             source,
         };
-        let Some(backend) = self.plugins.backend.as_mut() else {
-            return Ok(());
-        };
         if self.in_backend.contains(&id) {
             return Ok(());
         }
+        let previous = previous.filter(|(i, _, _)| {
+            i + 1 == id.index
+                && self.in_backend.contains(&KeyframeId {
+                    robot: id.robot,
+                    index: *i,
+                })
+        });
+        let Some(backend) = self.plugins.backend.as_mut() else {
+            return Ok(());
+        };
         backend.add_keyframe(id, guess).map_err(error)?;
         self.in_backend.insert(id);
-        if let Some((previous_index, previous_pose, pose)) = previous.filter(|(i, _, _)| i + 1 == id.index) {
+        if let Some((previous_index, previous_pose, pose)) = previous {
             let step = previous_pose.inverse() * pose;
             let covariance = self
                 .chains

@@ -1,0 +1,178 @@
+//! What a robot running in its own process has told its peers, kept so that a peer that joins late or
+//! comes back after a restart (a new protocol session) can be brought up to date: the robot's odometry
+//! chain, its descriptors and the inter-robot loops it accepted with that peer. In the SKiD-SLAM
+//! pipeline (Sec. III) descriptors and chains are broadcast once per keyframe; on a real network a peer
+//! that was not listening then would never learn them, and would find no loops with this robot.
+//!
+//! The replay is batched (one `OdomChain` per contiguous run of keyframes, descriptor batches of up to
+//! [`REPLAY_BATCH`] entries) so a catch-up is a handful of messages, not one per keyframe.
+
+use std::collections::BTreeSet;
+
+use skid_core::{KeyframeId, RobotId};
+use skid_protocol::{DescriptorBatch, Message, OdomChain};
+
+/// Most chain edges or descriptor entries in one replayed message.
+pub const REPLAY_BATCH: usize = 128;
+
+/// Everything worth replaying to a peer that (re)appears.
+#[derive(Debug, Default)]
+pub struct CatchUp {
+    chain: Vec<OdomChain>,
+    descriptors: Vec<DescriptorBatch>,
+    loops: Vec<(RobotId, Message)>,
+    /// Peer descriptors already handed to the index (replays from peers repeat them).
+    seen_descriptors: BTreeSet<KeyframeId>,
+}
+
+impl CatchUp {
+    /// Remembers the messages `robot` is about to send that a late peer would need.
+    pub fn record(&mut self, robot: RobotId, outbox: &[Message]) {
+        for message in outbox {
+            match message {
+                Message::OdomChain(chain) if chain.robot == robot => self.chain.push(chain.clone()),
+                Message::Descriptors(batch) if batch.robot == robot => self.descriptors.push(batch.clone()),
+                Message::Loops(_) => {
+                    if let skid_core::slots::Destination::Robot(peer) =
+                        crate::peers::destination(robot, message)
+                    {
+                        self.loops.push((peer, message.clone()));
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// The messages that bring `peer` up to date, batched.
+    pub fn replay_for(&self, peer: RobotId) -> Vec<Message> {
+        let mut messages = Vec::new();
+        let mut current: Option<OdomChain> = None;
+        for link in &self.chain {
+            match current.as_mut() {
+                Some(run) if run.to_index == link.from_index && run.edges.len() < REPLAY_BATCH => {
+                    run.edges.extend(link.edges.iter().copied());
+                    run.to_index = link.to_index;
+                }
+                _ => {
+                    if let Some(run) = current.replace(link.clone()) {
+                        messages.push(Message::OdomChain(run));
+                    }
+                }
+            }
+        }
+        messages.extend(current.map(Message::OdomChain));
+        let mut batch: Option<DescriptorBatch> = None;
+        for entry in &self.descriptors {
+            match batch.as_mut() {
+                Some(open) if open.kind == entry.kind && open.entries.len() < REPLAY_BATCH => {
+                    open.entries.extend(entry.entries.iter().cloned());
+                }
+                _ => {
+                    if let Some(full) = batch.replace(entry.clone()) {
+                        messages.push(Message::Descriptors(full));
+                    }
+                }
+            }
+        }
+        messages.extend(batch.map(Message::Descriptors));
+        messages.extend(
+            self.loops
+                .iter()
+                .filter(|(to, _)| *to == peer)
+                .map(|(_, message)| message.clone()),
+        );
+        messages
+    }
+
+    /// Drops descriptors of a peer's batch that were handled before (a peer's replay after this robot
+    /// restarted or joined late repeats them); false when nothing new is left.
+    pub fn keep_new_descriptors(&mut self, batch: &mut DescriptorBatch) -> bool {
+        let robot = batch.robot;
+        batch.entries.retain(|entry| {
+            self.seen_descriptors.insert(KeyframeId {
+                robot,
+                index: entry.keyframe_index,
+            })
+        });
+        !batch.entries.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use skid_core::Pose;
+    use skid_protocol::{ChainEdge, DescriptorEntry, DescriptorValues, InformationMsg, PoseMsg};
+
+    fn chain(robot: RobotId, to: u32) -> Message {
+        let edge = ChainEdge {
+            target_from_source: PoseMsg::from_pose(&Pose::identity()),
+            information: InformationMsg::from_information(&skid_core::Information::identity()),
+        };
+        Message::OdomChain(OdomChain {
+            robot,
+            from_index: to.saturating_sub(1),
+            to_index: to,
+            edges: if to == 0 { Vec::new() } else { vec![edge] },
+            world_from_first: PoseMsg::from_pose(&Pose::identity()),
+        })
+    }
+
+    fn descriptor(robot: RobotId, index: u32) -> Message {
+        Message::Descriptors(DescriptorBatch {
+            robot,
+            kind: "solid".into(),
+            entries: vec![DescriptorEntry {
+                keyframe_index: index,
+                stamp_nanos: u64::from(index),
+                values: DescriptorValues::F32(vec![index as f32; 4]),
+            }],
+        })
+    }
+
+    #[test]
+    fn replay_batches_the_chain_and_descriptors() {
+        let robot = RobotId(1);
+        let mut catch_up = CatchUp::default();
+        for index in 0..300 {
+            catch_up.record(robot, &[chain(robot, index), descriptor(robot, index)]);
+        }
+        let replay = catch_up.replay_for(RobotId(0));
+        let chains: Vec<&OdomChain> = replay
+            .iter()
+            .filter_map(|m| match m {
+                Message::OdomChain(c) => Some(c),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(chains.len(), 3);
+        assert_eq!((chains[0].from_index, chains[0].to_index), (0, 128));
+        assert_eq!(chains[0].edges.len(), 128);
+        assert_eq!(chains[2].to_index, 299);
+        let covered: usize = chains.iter().map(|c| c.edges.len()).sum();
+        assert_eq!(covered, 299);
+        let entries: usize = replay
+            .iter()
+            .filter_map(|m| match m {
+                Message::Descriptors(b) => Some(b.entries.len()),
+                _ => None,
+            })
+            .sum();
+        assert_eq!(entries, 300);
+        for message in &replay {
+            message.validate().unwrap();
+        }
+    }
+
+    #[test]
+    fn repeated_descriptors_are_dropped() {
+        let mut catch_up = CatchUp::default();
+        let Message::Descriptors(mut first) = descriptor(RobotId(2), 5) else {
+            unreachable!()
+        };
+        let mut again = first.clone();
+        assert!(catch_up.keep_new_descriptors(&mut first));
+        assert!(!catch_up.keep_new_descriptors(&mut again));
+    }
+}
