@@ -9,20 +9,24 @@
 //! and delivers their messages through the configured transport; outputs go to
 //! `<output_dir>/<run name>/`.
 
+mod artifacts;
 mod catchup;
 mod fleet;
 mod graph;
 mod host;
 mod loops;
+mod metrics;
 mod outputs;
 mod peers;
 mod settings;
 mod single;
 mod summary;
 
+pub use artifacts::{MAP_VOXEL_M, frames_in_alpha, g2o_vertex_id, merged_map, pose_graph};
 pub use fleet::Fleet;
 pub use graph::HostGraph;
 pub use host::{LoopStats, Plugins, RobotHost, ScanRecord};
+pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};
 pub use outputs::write_outputs;
 pub use single::{SingleRobot, SingleRobotError};
 pub use summary::{RobotSummary, RunSummary};

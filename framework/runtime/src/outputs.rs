@@ -1,20 +1,18 @@
-//! Writes a run's outputs: the effective configuration, per-robot trajectories (TUM and KITTI; the
-//! optimised estimate and the ground truth), each robot's pose graph (g2o) and the summary JSON.
+//! Writes a run's outputs under `<output_dir>/<name>/`: the effective configuration (`config.toml`),
+//! per-robot trajectories (TUM and KITTI; the optimised estimate and the ground truth) and pose graphs
+//! (g2o), the merged map (`map.ply`), `metrics.json`, `summary.json` and the PNG plots.
 
 use std::path::{Path, PathBuf};
 
 use skid_core::Pose;
+use skid_io::ply::{PlyFormat, write_ply};
 use skid_io::trajectory::{StampedPose, write_kitti_poses, write_tum};
 
+use crate::artifacts::{frames_in_alpha, merged_map, output_error, write_plots, write_pose_graphs};
+use crate::host::RobotHost;
+use crate::metrics::RunMetrics;
 use crate::summary::RunSummary;
 use crate::{Fleet, RuntimeError};
-
-fn output_error(path: &Path, message: impl ToString) -> RuntimeError {
-    RuntimeError::Output {
-        path: path.to_owned(),
-        message: message.to_string(),
-    }
-}
 
 fn stamped(poses: &[(u64, Pose)]) -> Vec<StampedPose> {
     poses
@@ -26,6 +24,37 @@ fn stamped(poses: &[(u64, Pose)]) -> Vec<StampedPose> {
         .collect()
 }
 
+fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), RuntimeError> {
+    let json = serde_json::to_string_pretty(value).map_err(|e| output_error(path, e))?;
+    std::fs::write(path, json).map_err(|e| output_error(path, e))
+}
+
+fn write_trajectories(folder: &Path, robot: &RobotHost) -> Result<(), RuntimeError> {
+    let robot_folder = folder.join(format!("robot{}", robot.robot.0));
+    std::fs::create_dir_all(&robot_folder).map_err(|e| output_error(&robot_folder, e))?;
+    let trajectory = robot.optimised_trajectory();
+    if !trajectory.is_empty() {
+        let tum = robot_folder.join("trajectory.tum");
+        write_tum(&tum, &stamped(&trajectory)).map_err(|e| output_error(&tum, e))?;
+        let kitti = robot_folder.join("trajectory.kitti");
+        let poses: Vec<_> = trajectory.iter().map(|(_, pose)| *pose).collect();
+        write_kitti_poses(&kitti, &poses).map_err(|e| output_error(&kitti, e))?;
+    }
+    let truth: Vec<(u64, Pose)> = robot
+        .scans
+        .iter()
+        .filter_map(|s| s.ground_truth.map(|t| (s.stamp_nanos, t)))
+        .collect();
+    if !truth.is_empty() {
+        let tum = robot_folder.join("ground_truth.tum");
+        write_tum(&tum, &stamped(&truth)).map_err(|e| output_error(&tum, e))?;
+        let kitti = robot_folder.join("ground_truth.kitti");
+        let poses: Vec<_> = truth.iter().map(|(_, pose)| *pose).collect();
+        write_kitti_poses(&kitti, &poses).map_err(|e| output_error(&kitti, e))?;
+    }
+    Ok(())
+}
+
 /// Writes everything under `<output_dir>/<name>/` and returns that folder.
 pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, RuntimeError> {
     let folder = fleet.config.run.output_dir.join(&fleet.config.run.name);
@@ -33,28 +62,20 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, Run
     let config_path = folder.join("config.toml");
     std::fs::write(&config_path, fleet.config.to_toml_string()).map_err(|e| output_error(&config_path, e))?;
     for robot in &fleet.robots {
-        let robot_folder = folder.join(format!("robot{}", robot.robot.0));
-        std::fs::create_dir_all(&robot_folder).map_err(|e| output_error(&robot_folder, e))?;
-        let trajectory = robot.optimised_trajectory();
-        if !trajectory.is_empty() {
-            let tum = robot_folder.join("trajectory.tum");
-            write_tum(&tum, &stamped(&trajectory)).map_err(|e| output_error(&tum, e))?;
-            let kitti = robot_folder.join("trajectory.kitti");
-            let poses: Vec<_> = trajectory.iter().map(|(_, pose)| *pose).collect();
-            write_kitti_poses(&kitti, &poses).map_err(|e| output_error(&kitti, e))?;
-        }
-        let truth: Vec<(u64, Pose)> = robot
-            .scans
-            .iter()
-            .filter_map(|s| s.ground_truth.map(|t| (s.stamp_nanos, t)))
-            .collect();
-        if !truth.is_empty() {
-            let tum = robot_folder.join("ground_truth.tum");
-            write_tum(&tum, &stamped(&truth)).map_err(|e| output_error(&tum, e))?;
-        }
+        write_trajectories(&folder, robot)?;
     }
-    let summary_path = folder.join("summary.json");
-    let json = serde_json::to_string_pretty(summary).map_err(|e| output_error(&summary_path, e))?;
-    std::fs::write(&summary_path, json).map_err(|e| output_error(&summary_path, e))?;
+    write_pose_graphs(&folder, &fleet.robots)?;
+    let frames = frames_in_alpha(&fleet.robots);
+    let map = merged_map(&fleet.robots, &frames);
+    if !map.is_empty() {
+        let path = folder.join("map.ply");
+        write_ply(&path, &map, PlyFormat::BinaryLittleEndian).map_err(|e| output_error(&path, e))?;
+    }
+    write_plots(&folder, &fleet.robots, &frames, &map)?;
+    write_json(
+        &folder.join("metrics.json"),
+        &RunMetrics::of(&fleet.config.run.name, &fleet.robots),
+    )?;
+    write_json(&folder.join("summary.json"), summary)?;
     Ok(folder)
 }

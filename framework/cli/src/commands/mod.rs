@@ -47,18 +47,34 @@ pub fn run(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> 
         odometry = %config.slot(Slot::Odometry).plugin,
         "starting"
     );
+    let total_scans = config.run.max_scans * u64::from(config.run.robots);
     let mut fleet = skid_runtime::Fleet::build(config, registry)?;
-    let mut last_report = std::time::Instant::now();
-    let summary = fleet.run_lockstep(|scans| {
-        if last_report.elapsed().as_secs_f64() > 2.0 {
-            tracing::info!(scans, "running");
-            last_report = std::time::Instant::now();
-        }
-    })?;
+    let bar = progress_bar(total_scans);
+    let summary = fleet.run_lockstep(|scans| bar.set_position(scans as u64))?;
+    bar.finish_and_clear();
     let folder = skid_runtime::write_outputs(&fleet, &summary)?;
     tracing::info!(folder = %folder.display(), wall_s = summary.wall_s, "finished");
     println!("{}", serde_json::to_string(&summary)?);
     Ok(())
+}
+
+/// A progress bar over every robot's scans (a spinner when the sources' length is unknown), drawn on
+/// stderr only when it is a terminal.
+fn progress_bar(total_scans: u64) -> indicatif::ProgressBar {
+    let bar = if total_scans > 0 {
+        indicatif::ProgressBar::new(total_scans)
+    } else {
+        indicatif::ProgressBar::new_spinner()
+    };
+    let template = if total_scans > 0 {
+        "{elapsed_precise} [{bar:40}] {pos}/{len} scans ({per_sec}, eta {eta})"
+    } else {
+        "{elapsed_precise} {spinner} {pos} scans ({per_sec})"
+    };
+    if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
 }
 
 /// `skid plugins`.

@@ -1,0 +1,208 @@
+//! The run's `metrics.json`: each robot's ATE and ARE after SE(3) Umeyama alignment, the paper's α/β
+//! multi-robot alignment metric for every other robot against robot 0 (α), the inter-robot loops found,
+//! accepted and rejected, and the bytes each robot sent per message kind.
+//!
+//! The α/β metric (SKiD-SLAM paper, "Multi-Robot Alignment Error") needs `T^α_β`, the estimate of β's
+//! map frame in α's: robot α's distributed back-end holds the β keyframes its inter-robot loops touch,
+//! so `T^α_β` is the SE(3) Umeyama fit of those poses in α's graph onto the same keyframes' poses in β's
+//! own estimate. A robot α never closed a loop with has no `T^α_β`; its entry says so.
+
+use std::collections::BTreeMap;
+
+use nalgebra::Vector3;
+use serde::Serialize;
+use skid_core::{KeyframeId, Pose};
+use skid_eval::{AlignmentKind, AlphaBetaInput, ErrorStats, TransformError, alpha_beta, ape, umeyama};
+
+use crate::host::{LoopStats, RobotHost};
+
+/// Absolute errors of one robot's trajectory after its own SE(3) alignment.
+#[derive(Clone, Debug, Serialize)]
+pub struct TrajectoryMetrics {
+    pub poses: usize,
+    pub path_length_m: f64,
+    /// ATE: position errors, metres.
+    pub ate_m: ErrorStats,
+    /// ARE: rotation errors, degrees.
+    pub are_deg: ErrorStats,
+    /// ATE RMSE as a percentage of the ground-truth path length.
+    pub ate_percent_of_path: f64,
+}
+
+/// The α/β metric for one robot β against α = robot 0.
+#[derive(Clone, Debug, Serialize)]
+pub struct AlignmentMetrics {
+    pub alpha: u32,
+    /// β keyframes in α's graph used to estimate `T^α_β`.
+    pub shared_keyframes: usize,
+    /// `T_β,APE = (T^GT_β)⁻¹ · T^GT_α · T^α_β`.
+    pub beta_alignment_error: TransformError,
+    /// The translation of `T_β,APE` as a percentage of β's path length.
+    pub beta_alignment_percent_of_path: f64,
+    /// β's trajectory placed through α's alignment, against β's ground truth: metres and degrees.
+    pub beta_in_alpha_ate_m: ErrorStats,
+    pub beta_in_alpha_are_deg: ErrorStats,
+}
+
+/// What one robot did and how well.
+#[derive(Clone, Debug, Serialize)]
+pub struct RobotMetrics {
+    pub robot: u32,
+    pub scans: usize,
+    pub keyframes: usize,
+    /// `None` when the source gives no ground truth.
+    pub trajectory: Option<TrajectoryMetrics>,
+    /// For robots other than α: the α/β metric, or why it could not be computed.
+    pub alignment: Option<AlignmentMetrics>,
+    pub alignment_unavailable: Option<String>,
+    pub loops: LoopStats,
+    pub bytes_sent_by_kind: BTreeMap<String, u64>,
+    pub bytes_sent_total: u64,
+}
+
+/// The whole `metrics.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunMetrics {
+    pub name: String,
+    pub robots: Vec<RobotMetrics>,
+    pub inter_robot_loops_found: usize,
+    pub inter_robot_loops_accepted: usize,
+    pub loops_rejected: usize,
+    pub bytes_sent_total: u64,
+}
+
+/// Pairs of (ground truth, estimate) for every scan that has ground truth.
+fn associated(host: &RobotHost) -> (Vec<Pose>, Vec<Pose>) {
+    host.optimised_trajectory()
+        .iter()
+        .zip(&host.scans)
+        .filter_map(|((_, estimate), scan)| scan.ground_truth.map(|truth| (truth, *estimate)))
+        .unzip()
+}
+
+fn path_length_m(poses: &[Pose]) -> f64 {
+    poses
+        .windows(2)
+        .map(|pair| (pair[1].translation.vector - pair[0].translation.vector).norm())
+        .sum()
+}
+
+fn trajectory_metrics(truth: &[Pose], estimate: &[Pose]) -> Result<TrajectoryMetrics, String> {
+    let result = ape(truth, estimate, AlignmentKind::Se3).map_err(|e| e.to_string())?;
+    let path_length_m = path_length_m(truth);
+    Ok(TrajectoryMetrics {
+        poses: truth.len(),
+        path_length_m,
+        ate_percent_of_path: 100.0 * result.translation_m.rmse / path_length_m.max(f64::MIN_POSITIVE),
+        ate_m: result.translation_m,
+        are_deg: result.rotation_deg,
+    })
+}
+
+/// `T^α_β` from the β keyframes α's back-end holds, with how many there were.
+pub fn alpha_from_beta(alpha: &RobotHost, beta: &RobotHost) -> Result<(Pose, usize), String> {
+    let backend = alpha
+        .plugins
+        .backend
+        .as_ref()
+        .ok_or("robot α has no back-end, so it holds no estimate of β's frame")?;
+    let graph = backend.graph();
+    let (in_alpha, in_beta): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = beta
+        .keyframes
+        .keys()
+        .filter_map(|&index| {
+            let id = KeyframeId {
+                robot: beta.robot,
+                index,
+            };
+            let seen_by_alpha = graph.pose(id)?;
+            let own = beta.keyframe_pose(index)?;
+            Some((seen_by_alpha.translation.vector, own.translation.vector))
+        })
+        .unzip();
+    if in_alpha.is_empty() {
+        return Err(format!(
+            "robot {} accepted no loop with robot {}",
+            alpha.robot, beta.robot
+        ));
+    }
+    let fit = umeyama(&in_beta, &in_alpha, false).map_err(|e| e.to_string())?;
+    Ok((fit.isometry, in_alpha.len()))
+}
+
+fn alignment_metrics(alpha: &RobotHost, beta: &RobotHost) -> Result<AlignmentMetrics, String> {
+    let (alpha_from_beta, shared_keyframes) = alpha_from_beta(alpha, beta)?;
+    let (gt_alpha, est_alpha) = associated(alpha);
+    let (gt_beta, est_beta) = associated(beta);
+    let result = alpha_beta(
+        &AlphaBetaInput {
+            gt_alpha: &gt_alpha,
+            est_alpha: &est_alpha,
+            gt_beta: &gt_beta,
+            est_beta: &est_beta,
+            alpha_from_beta,
+        },
+        AlignmentKind::Se3,
+    )
+    .map_err(|e| e.to_string())?;
+    let beta_path_m = path_length_m(&gt_beta).max(f64::MIN_POSITIVE);
+    Ok(AlignmentMetrics {
+        alpha: alpha.robot.0,
+        shared_keyframes,
+        beta_alignment_percent_of_path: 100.0 * result.beta_alignment_error.translation_m / beta_path_m,
+        beta_alignment_error: result.beta_alignment_error,
+        beta_in_alpha_ate_m: result.beta_in_alpha.translation_m,
+        beta_in_alpha_are_deg: result.beta_in_alpha.rotation_deg,
+    })
+}
+
+fn robot_metrics(robots: &[RobotHost], host: &RobotHost) -> RobotMetrics {
+    let (truth, estimate) = associated(host);
+    let trajectory = if truth.len() >= 3 {
+        trajectory_metrics(&truth, &estimate)
+            .map_err(|reason| tracing::warn!(robot = %host.robot, %reason, "no ATE"))
+            .ok()
+    } else {
+        None
+    };
+    let (alignment, alignment_unavailable) = match robots.first() {
+        Some(alpha) if alpha.robot != host.robot => match alignment_metrics(alpha, host) {
+            Ok(metrics) => (Some(metrics), None),
+            Err(reason) => (None, Some(reason)),
+        },
+        _ => (None, None),
+    };
+    let counters = host.protocol.counters().snapshot();
+    let bytes_sent_by_kind: BTreeMap<String, u64> = counters
+        .sent
+        .iter()
+        .map(|(kind, tally)| (kind.clone(), tally.bytes))
+        .collect();
+    RobotMetrics {
+        robot: host.robot.0,
+        scans: host.scans.len(),
+        keyframes: host.keyframes.len(),
+        trajectory,
+        alignment,
+        alignment_unavailable,
+        loops: host.stats.clone(),
+        bytes_sent_total: counters.sent_total.bytes,
+        bytes_sent_by_kind,
+    }
+}
+
+impl RunMetrics {
+    /// Computes every robot's metrics; robot 0 is α.
+    pub fn of(name: &str, robots: &[RobotHost]) -> Self {
+        let robots_metrics: Vec<RobotMetrics> =
+            robots.iter().map(|host| robot_metrics(robots, host)).collect();
+        Self {
+            name: name.to_owned(),
+            inter_robot_loops_found: robots_metrics.iter().map(|r| r.loops.candidates_inter).sum(),
+            inter_robot_loops_accepted: robots_metrics.iter().map(|r| r.loops.accepted_inter).sum(),
+            loops_rejected: robots_metrics.iter().map(|r| r.loops.rejected).sum(),
+            bytes_sent_total: robots_metrics.iter().map(|r| r.bytes_sent_total).sum(),
+            robots: robots_metrics,
+        }
+    }
+}
