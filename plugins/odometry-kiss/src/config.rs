@@ -19,7 +19,8 @@ pub struct KissIcpConfig {
     pub voxel_size_m: f64,
     /// Most points a map voxel holds.
     pub max_points_per_voxel: usize,
-    /// Correspondence threshold σ used until the first motion has been measured, in metres.
+    /// Correspondence threshold σ before any motion has been measured, in metres; it stays in σ's root
+    /// mean square as its first sample, as in the reference implementation.
     pub initial_threshold_m: f64,
     /// Model deviations (translation + rotation arc at max range) below this are not used to adapt σ,
     /// in metres.
