@@ -60,4 +60,40 @@ pub const PROFILES: &[BenchProfile] = &[
         package: "skid-bench",
         binary: "skid-bench-odometry",
     },
+    BenchProfile {
+        name: "table1-descriptor-memory",
+        summary: "paper Table I: total descriptor bytes shared over a long three-robot run, SOLiD vs Scan Context vs LiDAR-Iris",
+        package: "skid-bench",
+        binary: "skid-bench-table1-descriptor-memory",
+    },
+    BenchProfile {
+        name: "fig-pr-curves",
+        summary: "paper PR-curve figure: SOLiD, Scan Context, LiDAR-Iris per environment (planetary, cave, urban, narrow FOV)",
+        package: "skid-bench",
+        binary: "skid-bench-fig-pr-curves",
+    },
+    BenchProfile {
+        name: "table2-registration",
+        summary: "paper Table II: RTE/RRE/success of ICP, GICP, VGICP, KISS-Matcher (+GICP), RANSAC (+GICP) on simulated pairs",
+        package: "skid-bench",
+        binary: "skid-bench-table2-registration",
+    },
+    BenchProfile {
+        name: "fig-yaw-sweep",
+        summary: "paper figure: registration success rate vs yaw on the real HDL-32E pair",
+        package: "skid-bench",
+        binary: "skid-bench-fig-yaw-sweep",
+    },
+    BenchProfile {
+        name: "table3-slam",
+        summary: "paper Table III: ATE/ARE of robots α and β (α/β metric) per world, default vs DiSCo-like vs DCL-like, real two-robot runtime runs",
+        package: "skid-bench",
+        binary: "skid-bench-table3-slam",
+    },
+    BenchProfile {
+        name: "table4-latency",
+        summary: "paper Table IV: descriptor and cloud message latency at 5-30 m over the loopback link model",
+        package: "skid-bench",
+        binary: "skid-bench-table4-latency",
+    },
 ];

@@ -2,7 +2,10 @@
 //!
 //! - `ci`: format check, clippy with warnings denied, and the test suite (what `.ci/run` calls);
 //! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code);
-//! - `bench <profile>`: runs a benchmark profile in release mode, writing `target/bench/<profile>/`.
+//! - `bench <profile>`: runs a benchmark profile in release mode, writing `target/bench/<profile>/`
+//!   (with `--config configs/bench/<profile>.toml` when that file exists);
+//! - `bench-compare A B`: per-row numeric differences of two result folders' `results.json`;
+//! - `bench-readme`: regenerates README.md's "Results" section from `target/bench/*/results.md`.
 
 use std::process::{Command, ExitCode};
 
@@ -29,6 +32,11 @@ enum Task {
         #[arg(trailing_var_arg = true)]
         args: Vec<String>,
     },
+    /// Print the per-row numeric differences of two result folders (paths, or profile names under
+    /// `target/bench/`).
+    BenchCompare { a: String, b: String },
+    /// Regenerate the "Results" section of README.md from `target/bench/*/results.md`.
+    BenchReadme,
 }
 
 fn main() -> ExitCode {
@@ -36,6 +44,13 @@ fn main() -> ExitCode {
         Task::Ci => ci(),
         Task::Tidy => tidy(),
         Task::Bench { profile, args } => bench(&profile, &args),
+        Task::BenchCompare { a, b } => {
+            xtask::results::compare(&xtask::workspace_root(), &a, &b).map(|text| print!("{text}"))
+        }
+        Task::BenchReadme => {
+            let names: Vec<&str> = xtask::bench::PROFILES.iter().map(|p| p.name).collect();
+            xtask::results::readme(&xtask::workspace_root(), &names).map(|text| println!("{text}"))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -115,7 +130,7 @@ fn bench(profile: &str, args: &[String]) -> Result<()> {
     let profiles = xtask::bench::PROFILES;
     if profile == "list" {
         for entry in profiles {
-            println!("{:<12} {}", entry.name, entry.summary);
+            println!("{:<26} {}", entry.name, entry.summary);
         }
         return Ok(());
     }
@@ -137,6 +152,19 @@ fn bench(profile: &str, args: &[String]) -> Result<()> {
         entry.binary,
         "--",
     ]);
-    command.arg("--out").arg(&out).args(args);
-    run(command)
+    command.arg("--out").arg(&out);
+    let parameters = xtask::workspace_root()
+        .join("configs/bench")
+        .join(format!("{profile}.toml"));
+    if parameters.is_file() && !args.iter().any(|arg| arg == "--config") {
+        command.arg("--config").arg(parameters);
+    }
+    command.args(args);
+    let started = std::time::Instant::now();
+    let result = run(command);
+    eprintln!(
+        "xtask: bench {profile} took {:.1} s (including the build)",
+        started.elapsed().as_secs_f64()
+    );
+    result
 }
