@@ -123,6 +123,30 @@ enum Command {
         #[command(flatten)]
         layers: LayerArgs,
     },
+    /// One stage of a robot in its own process (started by `skid run` under `deploy.mode = "processes"`).
+    #[command(hide = true)]
+    Stage {
+        #[command(subcommand)]
+        command: StageCommand,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+enum StageCommand {
+    /// Source and odometry of one robot, publishing each scan's output over iceoryx2.
+    FrontEnd {
+        /// The host's effective configuration.
+        #[arg(long)]
+        config_file: PathBuf,
+        #[arg(long)]
+        robot: u32,
+        /// iceoryx2 namespace of this robot's topics.
+        #[arg(long)]
+        namespace: String,
+        /// Outputs the host already has (after a restart): replayed without publishing.
+        #[arg(long, default_value_t = 0)]
+        skip: u64,
+    },
 }
 
 #[derive(Args, Debug)]
@@ -254,6 +278,15 @@ fn main() -> ExitCode {
         Command::Odometry { folder, out, layers } => {
             commands::tools::odometry(&registry, &folder, out.as_deref(), &layers)
         }
+        Command::Stage {
+            command:
+                StageCommand::FrontEnd {
+                    config_file,
+                    robot,
+                    namespace,
+                    skip,
+                },
+        } => commands::extra::stage_front_end(&registry, &config_file, robot, &namespace, skip),
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

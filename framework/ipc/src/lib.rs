@@ -20,8 +20,8 @@ mod wire;
 pub use error::{IpcError, IpcResult};
 pub use node::{CLEANUP_PERIOD, CleanupReport, IpcNode, ProcessNode, ThreadNode};
 pub use port::{Loan, PublisherEvents, Received, TopicPublisher, TopicSubscriber};
-pub use topic::{Descriptors, GraphUpdates, Keyframes, Topic};
-pub use wire::{GraphUpdateHeader, GraphUpdateKind};
+pub use topic::{Descriptors, FrontEndScans, GraphUpdates, Keyframes, Topic};
+pub use wire::{FRONT_END_MESSAGE_BYTES, FrontEndHeader, FrontEndStatus, GraphUpdateHeader, GraphUpdateKind};
 
 /// The iceoryx2 service kinds, for naming `IpcNode<ipc::Service>` and `IpcNode<local::Service>`.
 pub use iceoryx2::service::{ipc, local};

@@ -121,6 +121,7 @@ impl<S: Service> IpcNode<S> {
             .publish_subscribe::<[T::Item]>()
             .user_header::<T::Header>()
             .history_size(T::HISTORY)
+            .enable_safe_overflow(T::SAFE_OVERFLOW)
             .subscriber_max_buffer_size(T::BUFFER.max(T::HISTORY))
             .max_publishers(4)
             .max_subscribers(16)

@@ -64,6 +64,11 @@ impl<S: Service, T: Topic> TopicPublisher<S, T> {
             .publisher_builder()
             .initial_max_slice_len(T::INITIAL_MAX_LEN)
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .backpressure_strategy(if T::SAFE_OVERFLOW {
+                BackpressureStrategy::DiscardData
+            } else {
+                BackpressureStrategy::RetryUntilDelivered
+            })
             .create()
             .map_err(|e| port_error("publisher", &service, e))?;
         let notifier = event

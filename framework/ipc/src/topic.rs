@@ -7,7 +7,7 @@ use std::fmt::Debug;
 use iceoryx2::prelude::ZeroCopySend;
 use skid_msgs::{DescriptorHeader, KeyframeHeader, LoopMeasurement, Point};
 
-use crate::wire::GraphUpdateHeader;
+use crate::wire::{FrontEndHeader, GraphUpdateHeader};
 
 /// A publish-subscribe topic: a `#[repr(C)]` header followed by a slice of elements.
 pub trait Topic: 'static {
@@ -21,6 +21,9 @@ pub trait Topic: 'static {
     const HISTORY: usize;
     /// Samples a subscriber holds before the oldest is overwritten.
     const BUFFER: usize;
+    /// Whether a full subscriber buffer overwrites its oldest sample (`true`) or makes the publisher
+    /// wait until the subscriber has taken one (`false`: back-pressure, nothing is lost).
+    const SAFE_OVERFLOW: bool = true;
 }
 
 /// Keyframes: deskewed, voxel-downsampled clouds with their pose (2 MB ≈ 131k points).
@@ -60,4 +63,20 @@ impl Topic for GraphUpdates {
     const INITIAL_MAX_LEN: usize = 64;
     const HISTORY: usize = 0;
     const BUFFER: usize = 256;
+}
+
+/// The front-end stage's output, one sample per scan: the scan's odometry pose and ground truth in the
+/// header, the keyframe cloud (empty for scans that are not keyframes) as the slice. Lossless: the
+/// front-end waits when the host is behind.
+#[derive(Debug)]
+pub struct FrontEndScans;
+
+impl Topic for FrontEndScans {
+    type Header = FrontEndHeader;
+    type Item = Point;
+    const NAME: &'static str = "front-end";
+    const INITIAL_MAX_LEN: usize = 1 << 17;
+    const HISTORY: usize = 0;
+    const BUFFER: usize = 8;
+    const SAFE_OVERFLOW: bool = false;
 }

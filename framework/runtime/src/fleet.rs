@@ -3,11 +3,12 @@
 
 use std::time::{Duration, Instant};
 
-use skid_config::ResolvedConfig;
+use skid_config::{DeployMode, ResolvedConfig};
 use skid_core::{PluginContext, PluginError, Registry, RobotId, Slot};
 use skid_protocol::{Incoming, Message, ProtocolConfig, ProtocolEndpoint};
 
 use crate::RuntimeError;
+use crate::frontend::ThreadFeed;
 use crate::host::{Plugins, RobotHost};
 use crate::summary::RunSummary;
 
@@ -41,7 +42,7 @@ fn isolate_loopback_hub(config: &mut ResolvedConfig) -> Option<String> {
     Some(name)
 }
 
-fn build<T: ?Sized + 'static>(
+pub(crate) fn build<T: ?Sized + 'static>(
     table: &skid_core::SlotTable<T>,
     config: &ResolvedConfig,
     context: &PluginContext,
@@ -62,6 +63,22 @@ fn build<T: ?Sized + 'static>(
         })
 }
 
+/// The context robot `robot`'s plugins are built with, in any executor.
+pub(crate) fn plugin_context(config: &ResolvedConfig, robot: RobotId) -> PluginContext {
+    let threads = if config.run.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        config.run.threads
+    };
+    PluginContext {
+        robot,
+        fleet_size: config.run.robots,
+        threads: threads.max(1),
+        seed: config.run.seed,
+        output_dir: Some(config.run.output_dir.join(&config.run.name)),
+    }
+}
+
 /// Builds one robot's host: robot `robot` of a fleet of `run.robots`, with the whole host's thread
 /// budget (in lockstep only one robot runs at a time) and protocol session number `session`.
 pub(crate) fn build_host(
@@ -70,18 +87,7 @@ pub(crate) fn build_host(
     robot: RobotId,
     session: u32,
 ) -> Result<RobotHost, RuntimeError> {
-    let threads = if config.run.threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    } else {
-        config.run.threads
-    };
-    let context = PluginContext {
-        robot,
-        fleet_size: config.run.robots,
-        threads: threads.max(1),
-        seed: config.run.seed,
-        output_dir: Some(config.run.output_dir.join(&config.run.name)),
-    };
+    let context = plugin_context(config, robot);
     let source = build(&registry.source, config, &context)?.ok_or_else(|| RuntimeError::Plugin {
         robot,
         slot: Slot::Source,
@@ -127,6 +133,7 @@ impl Fleet {
     pub fn run_lockstep(&mut self, mut progress: impl FnMut(usize)) -> Result<RunSummary, RuntimeError> {
         let started = Instant::now();
         let max_scans = self.config.run.max_scans as usize;
+        self.start_feeds()?;
         let mut done = 0;
         while self.robots.iter().any(|robot| !robot.finished) {
             for index in 0..self.robots.len() {
@@ -134,7 +141,7 @@ impl Fleet {
                 if robot.finished {
                     continue;
                 }
-                if max_scans > 0 && robot.scans.len() >= max_scans {
+                if max_scans > 0 && robot.scans_read >= max_scans {
                     robot.finished = true;
                     continue;
                 }
@@ -158,6 +165,39 @@ impl Fleet {
             robot.optimize(&self.config)?;
         }
         Ok(RunSummary::of(self, started.elapsed().as_secs_f64()))
+    }
+
+    /// Under `deploy.mode = "threads"` moves each robot's source and odometry onto its own thread, so
+    /// the front-ends run ahead in parallel while the host consumes their outputs in lockstep order
+    /// (the result is the same as `lockstep`). Under `processes` each front-end runs in a child process
+    /// that hands its keyframes over iceoryx2 shared memory.
+    fn start_feeds(&mut self) -> Result<(), RuntimeError> {
+        let max_scans = self.config.run.max_scans as usize;
+        match self.config.deploy.mode {
+            DeployMode::Lockstep => Ok(()),
+            DeployMode::Threads => {
+                for robot in &mut self.robots {
+                    if robot.feed.is_some() {
+                        continue;
+                    }
+                    let front_end = robot.detach_front_end();
+                    let feed = ThreadFeed::spawn(robot.robot, front_end, max_scans).map_err(|e| {
+                        RuntimeError::Plugin {
+                            robot: robot.robot,
+                            slot: Slot::Source,
+                            plugin: self.config.slot(Slot::Source).plugin.clone(),
+                            source: PluginError::Failed {
+                                plugin: "front-end thread".into(),
+                                message: e.to_string(),
+                            },
+                        }
+                    })?;
+                    robot.feed = Some(Box::new(feed));
+                }
+                Ok(())
+            }
+            DeployMode::Processes => crate::process::start_process_feeds(self),
+        }
     }
 
     /// Moves the hub's simulated clock to the newest scan stamp and tells it where the robots are.

@@ -16,6 +16,9 @@ use skid_geometry::OdometryChains;
 use skid_protocol::ProtocolEndpoint;
 
 use crate::RuntimeError;
+use crate::frontend::{
+    DetachedSource, FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome,
+};
 use crate::settings::{information_from_covariance, odometry_step_covariance};
 
 /// The plugin instances of one robot; every slot but the source may be empty.
@@ -92,7 +95,11 @@ pub struct RobotHost {
     pub stats: LoopStats,
     pub stage_ms: BTreeMap<&'static str, f64>,
     pub points_read: usize,
+    /// Scans read from the source, including those the odometry skipped.
+    pub scans_read: usize,
     pub finished: bool,
+    /// Set when the front-end runs on a thread or in another process.
+    pub feed: Option<Box<dyn FrontEndFeed>>,
     keyframes_since_optimize: u32,
 }
 
@@ -125,7 +132,9 @@ impl RobotHost {
             stats: LoopStats::default(),
             stage_ms: BTreeMap::new(),
             points_read: 0,
+            scans_read: 0,
             finished: false,
+            feed: None,
             keyframes_since_optimize: 0,
         }
     }
@@ -152,53 +161,83 @@ impl RobotHost {
     }
 
     /// Reads and processes one scan; false when the source has ended. Returns new descriptors to
-    /// broadcast through `outbox`.
+    /// broadcast through `outbox`. The scan comes from the robot's feed when its front-end runs on a
+    /// thread or in another process, else from its own source and odometry.
     pub fn step(
         &mut self,
         config: &ResolvedConfig,
         outbox: &mut Vec<skid_protocol::Message>,
     ) -> Result<bool, RuntimeError> {
-        let scan = match self.time("source", |host| host.plugins.source.next_scan()) {
-            Ok(Some(scan)) => scan,
-            Ok(None) => return Ok(false),
-            Err(error) => return Err(self.plugin_error(config, Slot::Source, error)),
-        };
-        self.points_read += scan.points.len();
-        let Some(odometry) = self.plugins.odometry.as_mut() else {
-            self.scans.push(ScanRecord {
-                stamp_nanos: scan.stamp_nanos,
-                world_from_sensor: Pose::identity(),
-                keyframe: None,
-                ground_truth: scan.ground_truth_world_from_sensor,
-            });
-            return Ok(true);
-        };
-        let started = Instant::now();
-        let update = match odometry.register(&scan) {
-            Ok(update) => update,
-            Err(PluginError::InvalidInput(reason)) => {
-                // A scan the odometry cannot use is skipped with a warning; the run goes on.
-                tracing::warn!(robot = %self.robot, sequence = scan.sequence, %reason, "scan skipped");
-                return Ok(true);
+        let output = match self.feed.as_mut() {
+            Some(feed) => feed.next(),
+            None => {
+                let mut front_end = FrontEnd {
+                    source: std::mem::replace(&mut self.plugins.source, Box::new(DetachedSource)),
+                    odometry: self.plugins.odometry.take(),
+                };
+                let output = front_end.next_output();
+                self.plugins.source = front_end.source;
+                self.plugins.odometry = front_end.odometry;
+                output
             }
-            Err(error) => return Err(self.plugin_error(config, Slot::Odometry, error)),
         };
-        *self.stage_ms.entry("odometry").or_default() += started.elapsed().as_secs_f64() * 1e3;
-        let keyframe_index = update
-            .keyframe
+        match output {
+            Ok(Some(output)) => {
+                self.apply_front_end(config, output, outbox)?;
+                Ok(true)
+            }
+            Ok(None) => Ok(false),
+            Err(FrontEndError { slot, source }) => Err(self.plugin_error(config, slot, source)),
+        }
+    }
+
+    /// Moves this robot's source and odometry onto a feed (a thread or a process) that runs ahead.
+    pub fn detach_front_end(&mut self) -> FrontEnd {
+        FrontEnd {
+            source: std::mem::replace(&mut self.plugins.source, Box::new(DetachedSource)),
+            odometry: self.plugins.odometry.take(),
+        }
+    }
+
+    /// Records one scan's front-end output and, for a keyframe, runs the rest of the pipeline.
+    pub fn apply_front_end(
+        &mut self,
+        config: &ResolvedConfig,
+        output: FrontEndOutput,
+        outbox: &mut Vec<skid_protocol::Message>,
+    ) -> Result<(), RuntimeError> {
+        self.points_read += output.points;
+        self.scans_read += 1;
+        *self.stage_ms.entry("source").or_default() += output.source_ms;
+        let (world_from_sensor, keyframe) = match output.odometry {
+            None => (Pose::identity(), None),
+            Some(OdometryOutcome::Skipped { reason }) => {
+                // A scan the odometry cannot use is skipped with a warning; the run goes on.
+                tracing::warn!(robot = %self.robot, sequence = output.sequence, %reason, "scan skipped");
+                return Ok(());
+            }
+            Some(OdometryOutcome::Registered {
+                world_from_sensor,
+                keyframe,
+            }) => {
+                *self.stage_ms.entry("odometry").or_default() += output.odometry_ms;
+                (world_from_sensor, keyframe)
+            }
+        };
+        let keyframe_index = keyframe
             .as_ref()
             .map(|k| k.id.index)
             .or_else(|| self.scans.last().and_then(|s| s.keyframe));
         self.scans.push(ScanRecord {
-            stamp_nanos: update.stamp_nanos,
-            world_from_sensor: update.world_from_sensor,
+            stamp_nanos: output.stamp_nanos,
+            world_from_sensor,
             keyframe: keyframe_index,
-            ground_truth: scan.ground_truth_world_from_sensor,
+            ground_truth: output.ground_truth,
         });
-        if let Some(keyframe) = update.keyframe {
+        if let Some(keyframe) = keyframe {
             self.on_keyframe(config, keyframe, outbox)?;
         }
-        Ok(true)
+        Ok(())
     }
 
     /// Adds a keyframe to the chains and the back-end, describes it, shares it, and looks for loops.

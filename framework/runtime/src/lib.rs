@@ -12,22 +12,26 @@
 mod artifacts;
 mod catchup;
 mod fleet;
+mod frontend;
 mod graph;
 mod host;
 mod loops;
 mod metrics;
 mod outputs;
 mod peers;
+mod process;
 mod settings;
 mod single;
 mod summary;
 
 pub use artifacts::{MAP_VOXEL_M, frames_in_alpha, g2o_vertex_id, merged_map, pose_graph};
 pub use fleet::Fleet;
+pub use frontend::{FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome, ThreadFeed};
 pub use graph::HostGraph;
 pub use host::{LoopStats, Plugins, RobotHost, ScanRecord};
 pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};
 pub use outputs::write_outputs;
+pub use process::{CRASH_AFTER_VAR, ProcessFeed, STAGE_EXE_VAR, run_front_end_stage};
 pub use single::{SingleRobot, SingleRobotError};
 pub use summary::{RobotSummary, RunSummary};
 

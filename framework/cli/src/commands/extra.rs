@@ -85,3 +85,24 @@ pub fn sim_preview(args: &SimArgs<'_>, out: &Path, size_px: u32) -> Result<()> {
     println!("{}", serde_json::json!({ "png": out.display().to_string() }));
     Ok(())
 }
+
+/// `skid stage front-end`: one robot's source and odometry as a separate process, fed the host's
+/// effective configuration (environment variables were already applied by the host).
+pub fn stage_front_end(
+    registry: &skid_core::Registry,
+    config_file: &Path,
+    robot: u32,
+    namespace: &str,
+    skip: u64,
+) -> Result<()> {
+    let sources = skid_config::ConfigSources {
+        overlays: vec![config_file.to_owned()],
+        use_env: false,
+        ..skid_config::ConfigSources::default()
+    };
+    let config = sources
+        .load(registry)
+        .with_context(|| format!("loading {}", config_file.display()))?;
+    skid_runtime::run_front_end_stage(&config, registry, skid_core::RobotId(robot), namespace, skip)?;
+    Ok(())
+}

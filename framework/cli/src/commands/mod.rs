@@ -1,6 +1,7 @@
 //! The subcommands' bodies.
 
 pub mod extra;
+pub mod robot;
 pub mod tools;
 
 use std::path::{Path, PathBuf};
@@ -40,6 +41,9 @@ pub(crate) fn load(sources: &ConfigSources, registry: &Registry) -> Result<Resol
 /// `skid run [PROFILE]`.
 pub fn run(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> Result<()> {
     let config = load(&sources(profile, layers), registry)?;
+    if config.deploy.robot.is_some() {
+        return robot::run_robot(registry, config);
+    }
     tracing::info!(
         run = %config.run.name,
         robots = config.run.robots,
