@@ -1,0 +1,33 @@
+//! `skid run` with `[deploy] robot = N`: one robot of the fleet in this process, in real time, talking
+//! to the other robots' processes through the configured transport (`zenoh` on a real network), as in
+//! the distributed setting of the SKiD-SLAM paper (Sec. III). Outputs go to
+//! `<output_dir>/<name>-robot<N>/`.
+
+use anyhow::Result;
+use skid_config::ResolvedConfig;
+use skid_core::{Registry, Slot};
+
+/// Builds and runs robot `deploy.robot`, writes its outputs and prints its summary as JSON.
+pub fn run_robot(registry: &Registry, config: ResolvedConfig) -> Result<()> {
+    tracing::info!(
+        run = %config.run.name,
+        robot = ?config.deploy.robot,
+        robots = config.run.robots,
+        transport = %config.slot(Slot::Transport).plugin,
+        playback_speed = config.deploy.playback_speed,
+        "starting one robot of the fleet"
+    );
+    let mut robot = skid_runtime::SingleRobot::build(config, registry)?;
+    let mut last_report = std::time::Instant::now();
+    let summary = robot.run(|scans| {
+        // Several robots may share a terminal: a log line every few seconds rather than a bar.
+        if last_report.elapsed().as_secs_f64() >= 2.0 {
+            tracing::info!(scans, "running");
+            last_report = std::time::Instant::now();
+        }
+    })?;
+    let folder = skid_runtime::write_outputs(robot.fleet(), &summary)?;
+    tracing::info!(folder = %folder.display(), wall_s = summary.wall_s, "finished");
+    println!("{}", serde_json::to_string(&summary)?);
+    Ok(())
+}
