@@ -219,3 +219,19 @@ fn assert_restarted_log(folder: &Path) {
     assert!(folder.join("config.toml").is_file());
     assert!(folder.join("robot1").join("trajectory.tum").is_file());
 }
+
+#[test]
+fn a_robot_outside_the_fleet_is_refused() {
+    let output = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .current_dir(repo())
+        .env_remove("RUST_LOG")
+        .args(["run", "--set", "run.robots=3", "--set", "deploy.robot=3"])
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    let stderr = without_ansi(&String::from_utf8_lossy(&output.stderr));
+    assert!(
+        stderr.contains("deploy.robot = 3") && stderr.contains("expected 0 to 2"),
+        "{stderr}"
+    );
+}
