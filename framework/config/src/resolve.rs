@@ -86,6 +86,16 @@ pub(crate) fn resolve(
             format!("{} robots; expected 1 to {MAX_ROBOTS}", raw.run.robots),
         ));
     }
+    if let Err(reason) = raw.deploy.validate(raw.run.robots) {
+        let key = if reason.starts_with("deploy.robot") {
+            "deploy.robot"
+        } else if reason.starts_with("deploy.playback_speed") {
+            "deploy.playback_speed"
+        } else {
+            "deploy.linger_s"
+        };
+        return Err(invalid(figment, key, reason));
+    }
     let mut slots = BTreeMap::new();
     for slot in Slot::ALL {
         let resolved = match raw.slot(slot) {

@@ -210,6 +210,21 @@ fn set_overrides_win_and_errors_name_the_argument() {
 }
 
 #[test]
+fn a_deploy_robot_outside_the_fleet_names_the_key_and_its_layer() {
+    let sets = vec!["run.robots=3".to_owned(), "deploy.robot=3".to_owned()];
+    let error = ConfigSources { sets, ..sources() }.load(&registry()).unwrap_err();
+    assert_invalid(
+        error,
+        "--set deploy.robot=3",
+        "deploy.robot",
+        &["expected 0 to 2"],
+    );
+    let sets = vec!["deploy.robot=2".to_owned()];
+    let config = ConfigSources { sets, ..sources() }.load(&registry()).unwrap();
+    assert_eq!(config.deploy.robot, Some(2));
+}
+
+#[test]
 fn switching_plugins_does_not_inherit_the_old_plugin_keys() {
     // The overlay selects `none`, so the default's ground_truth table stays valid but unused.
     let sets = vec!["odometry.plugin=none".to_owned()];
