@@ -59,7 +59,7 @@ fn config_show_prints_the_merged_default_as_toml() {
     assert_eq!(shown["run"]["robots"].as_integer(), Some(2));
     assert_eq!(shown["run"]["seed"].as_integer(), Some(99));
     assert_eq!(shown["source"]["plugin"].as_str(), Some("sim"));
-    assert!(shown["odometry"]["ground_truth"]["keyframe"].is_table());
+    assert!(shown["odometry"]["kiss_icp"]["keyframe"].is_table());
 }
 
 #[test]
@@ -125,6 +125,27 @@ fn run_writes_trajectories_and_a_summary() {
     }
     assert!(folder.join("config.toml").is_file());
     assert!(folder.join("summary.json").is_file());
+    for file in [
+        "map.ply",
+        "map.png",
+        "trajectories.png",
+        "robot0/pose_graph.g2o",
+        "robot1/ground_truth.kitti",
+    ] {
+        assert!(folder.join(file).is_file(), "{file} missing");
+    }
+    let metrics: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(folder.join("metrics.json")).unwrap()).unwrap();
+    let robots = metrics["robots"].as_array().unwrap();
+    assert_eq!(robots.len(), 2);
+    for robot in robots {
+        let ate_m = robot["trajectory"]["ate_m"]["rmse"].as_f64().unwrap();
+        assert!(ate_m.is_finite() && ate_m >= 0.0, "{robot}");
+    }
+    // Robot 1 is β: either its α/β alignment error or the reason it has none.
+    assert!(robots[1]["alignment"].is_object() || robots[1]["alignment_unavailable"].is_string());
+    let g2o = std::fs::read_to_string(folder.join("robot0/pose_graph.g2o")).unwrap();
+    assert!(g2o.lines().any(|l| l.starts_with("VERTEX_SE3:QUAT")), "{g2o}");
 }
 
 fn skid_io_read_tum(path: &Path) -> usize {

@@ -133,6 +133,12 @@ pub struct LoopsSection {
     pub optimize_every_keyframes: u32,
     /// Iterations allowed per optimisation.
     pub optimize_iterations: usize,
+    /// When the coarse registration reports its result invalid (too few inliers), still refine its
+    /// estimate with the fine registration and let the verifier (truncated MSE, overlap, PCM) judge the
+    /// loop, instead of dropping the candidate. Terrain with few distinct features (planetary) often
+    /// leaves the coarse stage with too few inliers although its estimate is within the fine stage's
+    /// basin.
+    pub refine_invalid_coarse: bool,
 }
 
 impl Default for LoopsSection {
@@ -148,6 +154,7 @@ impl Default for LoopsSection {
             odometry_sigma_rotation_deg: 0.2,
             optimize_every_keyframes: 10,
             optimize_iterations: 30,
+            refine_invalid_coarse: true,
         }
     }
 }

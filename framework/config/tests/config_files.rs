@@ -42,7 +42,7 @@ fn load_with_overlay(name: &str) -> Result<skid_config::ResolvedConfig, ConfigEr
 fn default_profile_loads_and_fills_plugin_defaults() {
     let config = sources().load(&registry()).unwrap();
     assert_eq!(config.slot(Slot::Source).plugin, "sim");
-    assert_eq!(config.slot(Slot::Odometry).plugin, "ground_truth");
+    assert_eq!(config.slot(Slot::Odometry).plugin, "kiss_icp");
     assert!(
         config
             .slot(Slot::Odometry)
@@ -51,7 +51,7 @@ fn default_profile_loads_and_fills_plugin_defaults() {
             .contains_key("keyframe")
     );
     let shown = config.to_toml_string();
-    assert!(shown.contains("[odometry.ground_truth.keyframe]"), "{shown}");
+    assert!(shown.contains("[odometry.kiss_icp.keyframe]"), "{shown}");
     assert!(shown.contains("robots = 3"), "{shown}");
 }
 
@@ -183,6 +183,7 @@ fn missing_file_and_unknown_profile_are_errors() {
 #[test]
 fn set_overrides_win_and_errors_name_the_argument() {
     let sets = vec![
+        "odometry.plugin=ground_truth".to_owned(),
         "odometry.ground_truth.scale_drift_percent=2.5".to_owned(),
         "run.name=trial".to_owned(),
     ];

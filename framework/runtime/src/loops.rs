@@ -42,6 +42,11 @@ impl RobotHost {
                 *self.stage_ms.entry("coarse").or_default() += started.elapsed().as_secs_f64() * 1e3;
                 match result {
                     Ok(alignment) if alignment.valid => alignment.target_from_source,
+                    Ok(alignment) if config.loops.refine_invalid_coarse && self.plugins.fine.is_some() => {
+                        // The verifier judges the refined loop; a wrong one fails its fitness or PCM.
+                        self.stats.coarse_invalid += 1;
+                        alignment.target_from_source
+                    }
                     Ok(_) | Err(PluginError::InvalidInput(_)) => {
                         self.stats.coarse_invalid += 1;
                         return Ok(());
