@@ -138,7 +138,10 @@ pub fn readme_part(profile: &str, markdown: &str, wall_s: Option<f64>) -> String
         text.push_str(&line);
         text.push('\n');
         if let (Some(wall), true) = (wall_s, line.starts_with("### ") && text.lines().count() == 1) {
-            let _ = writeln!(text, "\n`cargo xtask bench {profile}` — {wall:.0} s wall time.");
+            let _ = writeln!(
+                text,
+                "\n`cargo xtask bench {profile}`: {wall:.0} s wall time (the run, build excluded)."
+            );
         }
     }
     text
@@ -152,7 +155,7 @@ pub fn replace_section(readme: &str, section: &str) -> String {
             format!("{}{README_START}\n{section}{}", &readme[..start], &readme[end..])
         }
         _ => format!(
-            "{}\n## Results\n\n{README_START}\n{section}{README_END}\n",
+            "{}\n\n## Results\n\n{README_START}\n{section}{README_END}\n",
             readme.trim_end()
         ),
     }
@@ -240,5 +243,6 @@ mod tests {
         assert!(part.starts_with("### p\n"), "{part}");
         assert!(part.contains("![PR](target/bench/p/pr.png)"), "{part}");
         assert!(part.contains("12 s wall time"), "{part}");
+        assert!(!replace_section("a\n", "").contains("a\n## Results"));
     }
 }
