@@ -16,7 +16,6 @@ use skid_protocol::{
     CloudMsg, CompressedPoints, DescriptorEncoding, Incoming, Message, PoseMsg, ProtocolConfig,
     ProtocolEndpoint,
 };
-use skid_sim::SimConfig;
 use skid_transport_loopback::{HubConfig, LinkModel, LoopbackHub};
 
 use crate::memory::descriptor_message;
@@ -90,16 +89,8 @@ pub struct LatencyRow {
 }
 
 /// One real keyframe: the raw scan (for the descriptors) and its voxel cloud (for the cloud message).
-fn sample_keyframe(settings: &LatencySettings) -> Result<(Cloud, Cloud)> {
-    let config = SimConfig {
-        world: settings.world.clone(),
-        sensor: settings.sensor.clone(),
-        seed: settings.seed,
-        robots: 2,
-        route_length_m: 50.0,
-        imu: false,
-        ..SimConfig::default()
-    };
+fn sample_keyframe(settings: &LatencySettings, case: &PrCase) -> Result<(Cloud, Cloud)> {
+    let config = case.sim_config(settings.seed, 2, 50.0);
     let mut first = None;
     for_each_keyframe(&config, 1, 1.0e9, 1, |keyframe| {
         first.get_or_insert(keyframe.cloud);
@@ -186,7 +177,6 @@ pub fn latency_rows(settings: &LatencySettings) -> Result<Vec<LatencyRow>> {
     if !(settings.keyframe_period_s > 0.0 && settings.step_ms > 0.0 && settings.duration_s > 0.0) {
         bail!("keyframe_period_s, step_ms and duration_s must be positive");
     }
-    let (raw, voxel) = sample_keyframe(settings)?;
     let case = PrCase {
         name: settings.world.clone(),
         world: settings.world.clone(),
@@ -195,6 +185,7 @@ pub fn latency_rows(settings: &LatencySettings) -> Result<Vec<LatencyRow>> {
         upper_fov_deg: settings.upper_fov_deg,
         narrow: false,
     };
+    let (raw, voxel) = sample_keyframe(settings, &case)?;
     let mut encoder = ProtocolEndpoint::new(RobotId(1), 1, ProtocolConfig::default());
     let descriptor_count = (settings.duration_s / settings.keyframe_period_s).floor() as usize;
     let cloud_count = if settings.cloud_every_s > 0.0 {

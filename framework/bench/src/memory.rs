@@ -13,7 +13,6 @@ use skid_protocol::{
     DescriptorBatch, DescriptorEncoding, DescriptorEntry, DescriptorValues, Message, ProtocolConfig,
     ProtocolEndpoint,
 };
-use skid_sim::SimConfig;
 
 use crate::place_recognition::{PrCase, for_each_keyframe, variants};
 use crate::report::markdown_table;
@@ -101,15 +100,6 @@ fn robot_name(robot: u32) -> String {
 /// Runs the fleet's keyframes through every descriptor; one row per sender (robots 1..) and descriptor.
 pub fn descriptor_memory_rows(settings: &MemorySettings) -> Result<Vec<MemoryRow>> {
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let config = SimConfig {
-        world: settings.world.clone(),
-        sensor: settings.sensor.clone(),
-        seed: settings.seed,
-        robots: settings.robots,
-        route_length_m: settings.route_m,
-        imu: false,
-        ..SimConfig::default()
-    };
     let case = PrCase {
         name: format!("{}/{}", settings.world, settings.sensor),
         world: settings.world.clone(),
@@ -118,6 +108,7 @@ pub fn descriptor_memory_rows(settings: &MemorySettings) -> Result<Vec<MemoryRow
         upper_fov_deg: settings.upper_fov_deg,
         narrow: false,
     };
+    let config = case.sim_config(settings.seed, settings.robots, settings.route_m);
     let mut rows = Vec::new();
     for robot in 1..settings.robots {
         let mut described = variants(&case, &settings.descriptors)?;

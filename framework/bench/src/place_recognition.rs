@@ -42,6 +42,19 @@ pub struct PrCase {
 }
 
 impl PrCase {
+    /// The simulator's settings for this case: `robots` robots on `route_m`-metre routes, no IMU.
+    pub fn sim_config(&self, seed: u64, robots: u32, route_m: f64) -> SimConfig {
+        SimConfig {
+            world: self.world.clone(),
+            sensor: self.sensor.clone(),
+            seed,
+            robots,
+            route_length_m: route_m,
+            imu: false,
+            ..SimConfig::default()
+        }
+    }
+
     fn new(world: &str, sensor: &str, fov_deg: (f64, f64), narrow: bool) -> Self {
         Self {
             name: format!("{world}/{sensor}"),
@@ -250,15 +263,7 @@ pub fn run_case(
     report: &mut crate::Report,
 ) -> Result<CaseOutcome> {
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let config = SimConfig {
-        world: case.world.clone(),
-        sensor: case.sensor.clone(),
-        seed: settings.seed,
-        robots: settings.robots,
-        route_length_m: settings.route_m,
-        imu: false,
-        ..SimConfig::default()
-    };
+    let config = case.sim_config(settings.seed, settings.robots, settings.route_m);
     let mut variants = variants(case, &settings.descriptors)?;
     let mut keyframes: Vec<SimKeyframe> = Vec::new();
     let mut descriptors: Vec<Vec<Option<DescriptorBuf>>> = vec![Vec::new(); variants.len()];
