@@ -7,7 +7,9 @@
 //! its shared memory), restarted, and told how many outputs the host already has: it replays its
 //! deterministic source and odometry up to there without publishing and goes on from the last keyframe,
 //! while the host's graph, which lives in the host process, stays intact. The result is the same as with
-//! `threads` or `lockstep`.
+//! `threads` or `lockstep`. Every output carries its index; a gap (an output that never arrived, seen
+//! once on a cold, loaded CI machine) is handled the same way: the front-end is restarted from the
+//! host's count.
 
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -162,6 +164,11 @@ impl ProcessFeed {
         }
         self.restarts += 1;
         tracing::warn!(%robot, why, resume_after = self.consumed, "front-end process died; restarting");
+        // Stop the old process and drop what it published after the host's count: the new one
+        // publishes those outputs again.
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        while let Ok(Some(_)) = self.subscriber.try_receive() {}
         let report = self.node.cleanup_dead_nodes();
         tracing::debug!(%robot, cleaned = report.cleaned, failed = report.failed, "dead iceoryx2 nodes cleaned");
         self.child = self
@@ -204,6 +211,17 @@ impl FrontEndFeed for ProcessFeed {
                 let header = *sample.header();
                 // Outputs a dead incarnation published after the host's count are sent again.
                 if header.output_index < self.consumed {
+                    continue;
+                }
+                // A gap means an output never arrived: restart the front-end from the host's count
+                // (it replays deterministically), so nothing is lost.
+                if header.output_index > self.consumed {
+                    drop(sample);
+                    let why = format!(
+                        "output {} arrived while {} was expected",
+                        header.output_index, self.consumed
+                    );
+                    self.restart(&why)?;
                     continue;
                 }
                 self.consumed += 1;
