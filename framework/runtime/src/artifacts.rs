@@ -12,7 +12,7 @@ use skid_io::g2o::{Edge, PoseGraph, write_g2o_3d};
 
 use crate::RuntimeError;
 use crate::host::RobotHost;
-use crate::metrics::alpha_from_beta;
+use crate::metrics::{alpha_from_beta, associated};
 use crate::settings::{information_from_covariance, loop_information};
 
 /// Edge length of the merged map's voxels, metres.
@@ -147,12 +147,7 @@ pub fn write_plots(
     let options = PlotOptions::default();
     let mut named: Vec<(String, Vec<Pose>)> = Vec::new();
     for robot in robots {
-        let (truth, estimate): (Vec<Pose>, Vec<Pose>) = robot
-            .optimised_trajectory()
-            .iter()
-            .zip(&robot.scans)
-            .filter_map(|((_, estimate), scan)| scan.ground_truth.map(|truth| (truth, *estimate)))
-            .unzip();
+        let (truth, estimate) = associated(robot);
         if truth.len() < 3 {
             continue;
         }

@@ -171,10 +171,7 @@ impl RobotHost {
         let output = match self.feed.as_mut() {
             Some(feed) => feed.next(),
             None => {
-                let mut front_end = FrontEnd {
-                    source: std::mem::replace(&mut self.plugins.source, Box::new(DetachedSource)),
-                    odometry: self.plugins.odometry.take(),
-                };
+                let mut front_end = self.detach_front_end();
                 let output = front_end.next_output();
                 self.plugins.source = front_end.source;
                 self.plugins.odometry = front_end.odometry;

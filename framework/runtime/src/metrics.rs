@@ -72,7 +72,7 @@ pub struct RunMetrics {
 }
 
 /// Pairs of (ground truth, estimate) for every scan that has ground truth.
-fn associated(host: &RobotHost) -> (Vec<Pose>, Vec<Pose>) {
+pub(crate) fn associated(host: &RobotHost) -> (Vec<Pose>, Vec<Pose>) {
     host.optimised_trajectory()
         .iter()
         .zip(&host.scans)
