@@ -267,6 +267,7 @@ impl Backend for PgoBackend {
                 mu_factor: 1.4,
                 max_outer_iterations: 100,
                 inner: settings,
+                ..GncSettings::default()
             };
             let outcome = gnc_tls(&mut subgraph.problem, &gnc, &mut self.cache)?;
             OptimizeReport {

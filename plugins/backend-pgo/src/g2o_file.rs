@@ -165,6 +165,9 @@ pub struct PgoReport {
     pub outliers: usize,
     /// The cost after each accepted step (of the last solve, for GNC).
     pub costs: Vec<f64>,
+    /// Per edge, in file order: whether it was kept as an inlier (not serialised).
+    #[serde(skip)]
+    pub edge_inliers: Vec<bool>,
 }
 
 /// Reads a g2o file, optimises it and returns the report and the optimised graph.
@@ -293,6 +296,7 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
                 mu_factor: 1.4,
                 max_outer_iterations: 100,
                 inner: settings,
+                ..GncSettings::default()
             };
             let outcome = gnc_tls(&mut problem, &gnc, &mut cache)?;
             let stop = format!("{:?}", outcome.last.stop);
@@ -355,5 +359,6 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
         stop,
         outliers,
         costs,
+        edge_inliers: (0..norms.len()).map(|k| !is_outlier(k)).collect(),
     })
 }

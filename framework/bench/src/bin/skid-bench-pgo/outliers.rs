@@ -7,11 +7,9 @@ use std::collections::BTreeSet;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use nalgebra::{Isometry2, Isometry3, Matrix3, Matrix6, Translation3, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Isometry2, Isometry3, Matrix6, Translation3, UnitQuaternion, Vector2, Vector3};
 use serde::Serialize;
-use skid_backend_pgo::group::PoseGroup;
-use skid_backend_pgo::robust::chi2_quantile;
-use skid_backend_pgo::{PgoBackend, PgoConfig, PgoOptions, RobustMode, optimize_pose_graph};
+use skid_backend_pgo::{PgoBackend, PgoConfig, PgoOptions, PgoReport, RobustMode, optimize_pose_graph};
 use skid_bench::Report;
 use skid_core::slots::{Backend, LoopClosure, OdometryMeasurement};
 use skid_core::{KeyframeId, LoopId, PluginContext};
@@ -189,6 +187,14 @@ fn chain_view(graph: &PoseGraph3) -> Result<(PgoBackend, Vec<usize>)> {
     Ok((view, loops))
 }
 
+/// Number of edges of a graph of either dimension.
+fn edge_count(graph: &AnyPoseGraph) -> usize {
+    match graph {
+        AnyPoseGraph::ThreeD(g) => g.edges.len(),
+        AnyPoseGraph::TwoD(g) => g.edges.len(),
+    }
+}
+
 /// Largest translation difference between two solutions of the same vertex set.
 fn max_difference_m(a: &AnyPoseGraph, b: &AnyPoseGraph) -> f64 {
     match (a, b) {
@@ -212,6 +218,16 @@ fn optimise(
     keep: &dyn Fn(usize) -> bool,
     options: &PgoOptions,
 ) -> Result<(AnyPoseGraph, f64)> {
+    let (graph, report) = optimise_with_report(graph, keep, options)?;
+    Ok((graph, report.time_s))
+}
+
+/// [`optimise`] with the optimiser's report.
+fn optimise_with_report(
+    graph: &AnyPoseGraph,
+    keep: &dyn Fn(usize) -> bool,
+    options: &PgoOptions,
+) -> Result<(AnyPoseGraph, PgoReport)> {
     let mut copy = graph.clone();
     let report = match &mut copy {
         AnyPoseGraph::ThreeD(g) => {
@@ -235,43 +251,7 @@ fn optimise(
             optimize_pose_graph::<Isometry2<f64>, 3>(g, options)?
         }
     };
-    Ok((copy, report.time_s))
-}
-
-/// Loops whose squared Mahalanobis residual at the solution exceeds `threshold` (GNC's outliers).
-fn residual_outliers(
-    solution: &AnyPoseGraph,
-    corrupted: &AnyPoseGraph,
-    loops: &[usize],
-    threshold: f64,
-) -> BTreeSet<usize> {
-    let squared = |k: usize| match (solution, corrupted) {
-        (AnyPoseGraph::ThreeD(s), AnyPoseGraph::ThreeD(c)) => {
-            let e = &c.edges[k];
-            let r = <Isometry3<f64> as PoseGroup<6>>::between_residual(
-                &e.from_from_to.inverse(),
-                &s.vertices[&e.from],
-                &s.vertices[&e.to],
-            );
-            (r.transpose() * e.information * r)[(0, 0)]
-        }
-        (AnyPoseGraph::TwoD(s), AnyPoseGraph::TwoD(c)) => {
-            let e = &c.edges[k];
-            let r = <Isometry2<f64> as PoseGroup<3>>::between_residual(
-                &e.from_from_to.inverse(),
-                &s.vertices[&e.from],
-                &s.vertices[&e.to],
-            );
-            let information: Matrix3<f64> = e.information;
-            (r.transpose() * information * r)[(0, 0)]
-        }
-        _ => f64::INFINITY,
-    };
-    loops
-        .iter()
-        .copied()
-        .filter(|&k| squared(k) > threshold)
-        .collect()
+    Ok((copy, report))
 }
 
 /// Runs one graph with `count` wrong loops through PCM and GNC.
@@ -280,12 +260,20 @@ fn case(report: &mut Report, data: &std::path::Path, file: &str, count: usize, w
         read_g2o(data.join(file), &G2oReadOptions::default()).with_context(|| file.to_owned())?;
     let options = PgoOptions::default();
     let (clean, _) = optimise(&graph, &|_| true, &options)?;
-    let mut rng = Rng::new(0x5eed ^ count as u64);
+    let seed: u64 = std::env::var("SKID_BENCH_PGO_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0x5eed);
+    let mut rng = Rng::new(seed ^ count as u64);
     let mut corrupted = graph.clone();
     let wrong = corrupt(&mut corrupted, count, &mut rng);
     let embedded = embed(&corrupted);
     let (view, loops) = chain_view(&embedded)?;
     let true_loops = loops.len() - wrong.len();
+    let gnc = PgoOptions {
+        robust: RobustMode::Gnc,
+        ..PgoOptions::default()
+    };
     let mut push = |method: &str,
                     accepted: &BTreeSet<usize>,
                     solution: &AnyPoseGraph,
@@ -338,35 +326,48 @@ fn case(report: &mut Report, data: &std::path::Path, file: &str, count: usize, w
             &options,
         )?;
         push("pcm", &accepted, &solution, verify_s, optimise_s)?;
+        // PCM's set, then GNC in the back-end: what `[verifier] pcm` with `[backend.pgo] robust = "gnc"` does.
+        let (solution, report) = optimise_with_report(
+            &corrupted,
+            &|k| !loop_set.contains(&k) || accepted.contains(&k),
+            &gnc,
+        )?;
+        let kept: Vec<usize> = (0..report.edge_inliers.len())
+            .filter(|&k| report.edge_inliers[k])
+            .collect();
+        let kept_edges: Vec<usize> = (0..edge_count(&corrupted))
+            .filter(|&k| !loop_set.contains(&k) || accepted.contains(&k))
+            .collect();
+        let kept_loops: BTreeSet<usize> = kept
+            .iter()
+            .map(|&k| kept_edges[k])
+            .filter(|k| loop_set.contains(k))
+            .collect();
+        push("pcm+gnc", &kept_loops, &solution, verify_s, report.time_s)?;
     }
-    let gnc = PgoOptions {
-        robust: RobustMode::Gnc,
-        ..PgoOptions::default()
-    };
-    let (solution, optimise_s) = optimise(&corrupted, &|_| true, &gnc)?;
-    let dof = if matches!(corrupted, AnyPoseGraph::TwoD(_)) {
-        3
-    } else {
-        6
-    };
-    let outliers = residual_outliers(
-        &solution,
-        &corrupted,
-        &loops,
-        chi2_quantile(dof, gnc.inlier_probability),
-    );
+    let (solution, gnc_report) = optimise_with_report(&corrupted, &|_| true, &gnc)?;
+    let optimise_s = gnc_report.time_s;
+    let outliers: BTreeSet<usize> = loops
+        .iter()
+        .copied()
+        .filter(|&k| !gnc_report.edge_inliers[k])
+        .collect();
     let accepted: BTreeSet<usize> = loops.iter().copied().filter(|k| !outliers.contains(k)).collect();
     push("gnc", &accepted, &solution, 0.0, optimise_s)
 }
 
 /// The robustness table.
 pub fn rows(report: &mut Report, data: &std::path::Path) -> Result<()> {
+    let only = std::env::var("SKID_BENCH_PGO_GRAPHS").unwrap_or_default();
     for (file, with_pcm) in [
         ("se_sync/intel.g2o", true),
         ("se_sync/sphere2500.g2o", true),
         ("se_sync/parking-garage.g2o", true),
         ("se_sync/city10000.g2o", false),
     ] {
+        if !only.is_empty() && !only.split(',').any(|name| file.contains(name)) {
+            continue;
+        }
         for count in [20, 100] {
             case(report, data, file, count, with_pcm)?;
         }
