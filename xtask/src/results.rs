@@ -161,8 +161,8 @@ pub fn replace_section(readme: &str, section: &str) -> String {
     }
 }
 
-/// `cargo xtask bench-readme`: the Results section from every `target/bench/<profile>/results.md`, in the
-/// order of `profiles`, then any other folders.
+/// `cargo xtask bench-readme`: the Results section from every `target/bench/<profile>/results.md` (and those
+/// of its sub-folders), in the order of `profiles`, then any other folders.
 pub fn readme(root: &Path, profiles: &[&str]) -> Result<String> {
     let bench = root.join("target/bench");
     let mut names: Vec<String> = profiles.iter().map(|p| (*p).to_owned()).collect();
@@ -192,6 +192,22 @@ pub fn readme(root: &Path, profiles: &[&str]) -> Result<String> {
         section.push_str(&readme_part(name, &markdown, wall_s));
         section.push('\n');
         found += 1;
+        // Sections a profile writes to its own sub-folders (e.g. `pgo/outliers`).
+        let mut subfolders: Vec<String> = std::fs::read_dir(&folder)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter(|e| e.path().join("results.md").is_file())
+            .filter_map(|e| e.file_name().to_str().map(str::to_owned))
+            .collect();
+        subfolders.sort();
+        for sub in subfolders {
+            let Ok(markdown) = std::fs::read_to_string(folder.join(&sub).join("results.md")) else {
+                continue;
+            };
+            section.push_str(&readme_part(&format!("{name}/{sub}"), &markdown, None));
+            section.push('\n');
+        }
     }
     if found == 0 {
         bail!(
