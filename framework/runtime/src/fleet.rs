@@ -111,6 +111,13 @@ pub(crate) fn build_host(
 /// Rounds of message delivery after each step, so a request and its reply complete within one step.
 const DELIVERY_ROUNDS: usize = 4;
 
+/// Most delivery rounds after the sources end, while requested clouds are still missing.
+const DRAIN_ROUNDS: usize = 20;
+
+/// How long, in scan time, a robot waits for a requested cloud before asking again (the wall-clock
+/// executors use [`crate::single::CLOUD_RETRY_PERIOD`]).
+const CLOUD_RETRY_NANOS: u64 = crate::single::CLOUD_RETRY_PERIOD.as_nanos() as u64;
+
 impl Fleet {
     /// Builds every robot's plugins. `threads` is the whole host's budget; in lockstep every robot may
     /// use all of it, since only one robot runs at a time.
@@ -148,16 +155,28 @@ impl Fleet {
                 let mut outbox = Vec::new();
                 robot.finished = !robot.step(&self.config, &mut outbox)?;
                 done += usize::from(!robot.finished);
+                if let Some(now_nanos) = robot.scans.last().map(|s| s.stamp_nanos) {
+                    outbox.extend(robot.due_cloud_requests(now_nanos, CLOUD_RETRY_NANOS));
+                }
                 send_all(robot, outbox);
             }
             self.sync_hub();
             self.deliver()?;
             progress(done);
         }
-        // Let the last messages arrive: advance the simulated clock past the link latency.
-        for _ in 0..DELIVERY_ROUNDS {
+        // Let the last messages arrive: advance the simulated clock past the link latency, asking again
+        // for clouds still missing (over a lossy link, for up to `DRAIN_ROUNDS` retry periods).
+        for round in 0..DRAIN_ROUNDS {
+            let waiting = self.robots.iter().any(|robot| !robot.requested.is_empty());
+            if round >= DELIVERY_ROUNDS && !waiting {
+                break;
+            }
             if let Some(hub) = &self.hub {
-                hub.advance_to(hub.now_nanos() + 1_000_000_000);
+                hub.advance_to(hub.now_nanos() + CLOUD_RETRY_NANOS);
+                for robot in &mut self.robots {
+                    let again = robot.due_cloud_requests(hub.now_nanos(), CLOUD_RETRY_NANOS);
+                    send_all(robot, again);
+                }
             }
             self.deliver()?;
         }

@@ -76,7 +76,9 @@ pub struct RobotHost {
     pub prepared: HashMap<KeyframeId, PreparedCloud>,
     pub index: Option<Box<dyn DescriptorIndex>>,
     pub pending: Vec<PendingCandidate>,
-    pub requested: BTreeSet<KeyframeId>,
+    /// Peer keyframes whose cloud was requested and has not arrived, with the stamp (this robot's
+    /// newest scan) of the last request.
+    pub requested: BTreeMap<KeyframeId, u64>,
     pub loops: BTreeMap<LoopId, LoopClosure>,
     /// Loops identified across robots by their keyframe pair.
     pub loop_by_pair: BTreeMap<(KeyframeId, KeyframeId), LoopId>,
@@ -119,7 +121,7 @@ impl RobotHost {
             prepared: HashMap::new(),
             index,
             pending: Vec::new(),
-            requested: BTreeSet::new(),
+            requested: BTreeMap::new(),
             loops: BTreeMap::new(),
             loop_by_pair: BTreeMap::new(),
             next_loop_id: 0,
@@ -388,7 +390,9 @@ impl RobotHost {
                 if self.peer_clouds.contains_key(&candidate.id) {
                     self.process_candidate(config, pending, outbox)?;
                 } else {
-                    if self.requested.insert(candidate.id) {
+                    if !self.requested.contains_key(&candidate.id) {
+                        let now_nanos = self.scans.last().map_or(0, |s| s.stamp_nanos);
+                        self.requested.insert(candidate.id, now_nanos);
                         outbox.push(crate::peers::cloud_request(self.robot, candidate.id));
                     }
                     self.pending.push(pending);

@@ -116,6 +116,20 @@ pub fn loops_message(
 }
 
 impl RobotHost {
+    /// Cloud requests unanswered for `period_nanos` of this robot's time (`now_nanos`, its newest scan
+    /// stamp or the link's simulated clock), sent again: the request or the reply was lost, or the peer was
+    /// away. Deterministic, so the executors still agree.
+    pub fn due_cloud_requests(&mut self, now_nanos: u64, period_nanos: u64) -> Vec<Message> {
+        let mut again = Vec::new();
+        for (&id, sent_nanos) in &mut self.requested {
+            if now_nanos.saturating_sub(*sent_nanos) >= period_nanos {
+                *sent_nanos = now_nanos;
+                again.push(cloud_request(self.robot, id));
+            }
+        }
+        again
+    }
+
     /// Acts on one message from a peer; messages that do not make sense are logged and dropped.
     pub fn handle_message(
         &mut self,

@@ -193,7 +193,7 @@ impl SingleRobot {
     /// Sends again the cloud requests that stayed unanswered too long.
     fn retry_cloud_requests(&mut self) {
         let robot = &mut self.fleet.robots[0];
-        self.requests_sent.retain(|id, _| robot.requested.contains(id));
+        self.requests_sent.retain(|id, _| robot.requested.contains_key(id));
         let now = Instant::now();
         let mut again = Vec::new();
         for (&id, sent) in &mut self.requests_sent {

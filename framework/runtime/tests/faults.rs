@@ -147,6 +147,15 @@ fn thirty_percent_loss_still_finds_inter_robot_loops() {
         .map(|l| l.dropped_lost)
         .sum();
     assert!(lost > 20, "the link lost only {lost} messages");
+    // Lost requests and lost replies are asked for again: every candidate got its cloud.
+    for robot in &lossy.robots {
+        assert!(
+            robot.requested.is_empty() && robot.pending.is_empty(),
+            "robot {} still waits for {:?}",
+            robot.robot,
+            robot.requested
+        );
+    }
     let loops = all_inter_loops(&lossy);
     assert!(
         involving(&loops, 0) >= 3 && involving(&loops, 2) >= 3,
