@@ -5,7 +5,9 @@
 //! CPU seconds (median of three runs; wall-clock alongside), as the machine is shared. Then the
 //! multi-robot PCM sets ([`multi_robot`]) and the wrong-loop robustness runs ([`outliers`]), each in its
 //! own table (`multi_robot/`, `outliers/` under the output folder). `SKID_BENCH_PGO_ONLY=solver|
-//! multi_robot|outliers` runs one section.
+//! multi_robot|outliers` runs one section; for the wrong-loop table, `SKID_BENCH_PGO_GRAPHS=intel,garage`
+//! keeps the graphs whose file name contains one of the words and `SKID_BENCH_PGO_SEED=N` draws other
+//! wrong loops.
 
 mod multi_robot;
 mod outliers;
