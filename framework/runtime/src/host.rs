@@ -76,9 +76,8 @@ pub struct RobotHost {
     pub prepared: HashMap<KeyframeId, PreparedCloud>,
     pub index: Option<Box<dyn DescriptorIndex>>,
     pub pending: Vec<PendingCandidate>,
-    /// Peer keyframes whose cloud was requested and has not arrived, with the stamp (this robot's
-    /// newest scan) of the last request.
-    pub requested: BTreeMap<KeyframeId, u64>,
+    /// Peer keyframes whose cloud was requested and has not arrived.
+    pub requested: BTreeMap<KeyframeId, CloudRequestState>,
     pub loops: BTreeMap<LoopId, LoopClosure>,
     /// Loops identified across robots by their keyframe pair.
     pub loop_by_pair: BTreeMap<(KeyframeId, KeyframeId), LoopId>,
@@ -103,6 +102,15 @@ pub struct RobotHost {
     /// Set when the front-end runs on a thread or in another process.
     pub feed: Option<Box<dyn FrontEndFeed>>,
     keyframes_since_optimize: u32,
+}
+
+/// When a cloud request was last sent, in this robot's time (its newest scan stamp, or the link's
+/// simulated clock after the sources end), and how long to wait before asking again (0: the first
+/// retry period); the wait doubles with each retry so a congested link is not flooded with copies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CloudRequestState {
+    pub sent_nanos: u64,
+    pub wait_nanos: u64,
 }
 
 impl RobotHost {
@@ -391,8 +399,14 @@ impl RobotHost {
                     self.process_candidate(config, pending, outbox)?;
                 } else {
                     if !self.requested.contains_key(&candidate.id) {
-                        let now_nanos = self.scans.last().map_or(0, |s| s.stamp_nanos);
-                        self.requested.insert(candidate.id, now_nanos);
+                        let sent_nanos = self.scans.last().map_or(0, |s| s.stamp_nanos);
+                        self.requested.insert(
+                            candidate.id,
+                            CloudRequestState {
+                                sent_nanos,
+                                wait_nanos: 0,
+                            },
+                        );
                         outbox.push(crate::peers::cloud_request(self.robot, candidate.id));
                     }
                     self.pending.push(pending);

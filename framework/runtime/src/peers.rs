@@ -118,12 +118,15 @@ pub fn loops_message(
 impl RobotHost {
     /// Cloud requests unanswered for `period_nanos` of this robot's time (`now_nanos`, its newest scan
     /// stamp or the link's simulated clock), sent again: the request or the reply was lost, or the peer was
-    /// away. Deterministic, so the executors still agree.
+    /// away. Each retry doubles the wait (up to 16 periods), so replies queued on a slow link are not
+    /// answered by ever more copies. Deterministic, so the executors still agree.
     pub fn due_cloud_requests(&mut self, now_nanos: u64, period_nanos: u64) -> Vec<Message> {
         let mut again = Vec::new();
-        for (&id, sent_nanos) in &mut self.requested {
-            if now_nanos.saturating_sub(*sent_nanos) >= period_nanos {
-                *sent_nanos = now_nanos;
+        for (&id, state) in &mut self.requested {
+            let wait_nanos = state.wait_nanos.max(period_nanos);
+            if now_nanos.saturating_sub(state.sent_nanos) >= wait_nanos {
+                state.sent_nanos = now_nanos;
+                state.wait_nanos = (2 * wait_nanos).min(16 * period_nanos);
                 again.push(cloud_request(self.robot, id));
             }
         }

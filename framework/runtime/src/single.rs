@@ -10,15 +10,14 @@
 //! - replays its chain, descriptors and loops to a peer whose new protocol session it sees (a late
 //!   joiner or a restarted process; see [`crate::catchup`]), and drops the repeats it receives itself;
 //! - re-sends cloud requests that stay unanswered for [`CLOUD_RETRY_PERIOD`] (lost, or the peer was
-//!   down);
+//!   down), doubling the wait with each retry;
 //! - keeps answering for `deploy.linger_s` after its source ends, so its peers' late requests succeed.
 
-use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use skid_config::ResolvedConfig;
 use skid_core::slots::Destination;
-use skid_core::{KeyframeId, Registry, RobotId};
+use skid_core::{Registry, RobotId};
 use skid_protocol::{Arrival, Capabilities, Message, PeerStatus};
 
 use crate::RuntimeError;
@@ -48,8 +47,8 @@ pub struct SingleRobot {
     /// A fleet holding only this robot, so the run's outputs are written as for any fleet.
     fleet: Fleet,
     catch_up: CatchUp,
-    /// When each outstanding cloud request was last sent.
-    requests_sent: BTreeMap<KeyframeId, Instant>,
+    /// The origin of this robot's wall clock, in which its cloud requests are timed.
+    started: Instant,
 }
 
 impl SingleRobot {
@@ -74,7 +73,7 @@ impl SingleRobot {
                 hub: None,
             },
             catch_up: CatchUp::default(),
-            requests_sent: BTreeMap::new(),
+            started: Instant::now(),
         })
     }
 
@@ -142,6 +141,8 @@ impl SingleRobot {
 
     /// Processes one scan; returns whether the source has ended and the newest scan's stamp.
     fn step(&mut self) -> Result<(bool, u64), RuntimeError> {
+        // Cloud requests are timed by the wall clock: this robot may linger after its scans end.
+        let now_nanos = self.wall_nanos();
         let config = &self.fleet.config;
         let max_scans = config.run.max_scans as usize;
         let robot = &mut self.fleet.robots[0];
@@ -151,11 +152,12 @@ impl SingleRobot {
             let mut outbox = Vec::new();
             robot.finished = !robot.step(config, &mut outbox)?;
             self.catch_up.record(robot.robot, &outbox);
-            let now = Instant::now();
             for message in &outbox {
                 if let Message::CloudRequest(request) = message {
-                    for &id in &request.keyframes {
-                        self.requests_sent.insert(id, now);
+                    for id in &request.keyframes {
+                        if let Some(state) = robot.requested.get_mut(id) {
+                            state.sent_nanos = now_nanos;
+                        }
                     }
                 }
             }
@@ -190,18 +192,18 @@ impl SingleRobot {
         Ok(())
     }
 
-    /// Sends again the cloud requests that stayed unanswered too long.
+    /// Nanoseconds since this robot was built.
+    fn wall_nanos(&self) -> u64 {
+        u64::try_from(self.started.elapsed().as_nanos()).unwrap_or(u64::MAX)
+    }
+
+    /// Sends again the cloud requests that stayed unanswered too long (with the back-off of
+    /// [`crate::RobotHost::due_cloud_requests`]).
     fn retry_cloud_requests(&mut self) {
+        let now_nanos = self.wall_nanos();
+        let period_nanos = u64::try_from(CLOUD_RETRY_PERIOD.as_nanos()).unwrap_or(u64::MAX);
         let robot = &mut self.fleet.robots[0];
-        self.requests_sent.retain(|id, _| robot.requested.contains_key(id));
-        let now = Instant::now();
-        let mut again = Vec::new();
-        for (&id, sent) in &mut self.requests_sent {
-            if now.duration_since(*sent) >= CLOUD_RETRY_PERIOD {
-                *sent = now;
-                again.push(crate::peers::cloud_request(robot.robot, id));
-            }
-        }
+        let again = robot.due_cloud_requests(now_nanos, period_nanos);
         send_all(robot, again);
     }
 
