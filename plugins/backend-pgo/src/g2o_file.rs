@@ -165,6 +165,10 @@ pub struct PgoReport {
     pub outliers: usize,
     /// The cost after each accepted step (of the last solve, for GNC).
     pub costs: Vec<f64>,
+    /// GNC's a-posteriori variance factor of the first run (below 1: the stated covariances are
+    /// pessimistic and a second run used the scaled threshold).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub variance_factor: Option<f64>,
     /// Per edge, in file order: whether it was kept as an inlier (not serialised).
     #[serde(skip)]
     pub edge_inliers: Vec<bool>,
@@ -289,6 +293,7 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
     };
     let mut cache = SystemCache::<D>::default();
     let mut costs = Vec::new();
+    let mut variance_factor = None;
     let (iterations, factorizations, final_cost, converged, stop, weights) =
         if options.robust == RobustMode::Gnc {
             let gnc = GncSettings {
@@ -307,7 +312,10 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
                 outcome.last.final_cost,
                 outcome.last.converged(),
                 stop,
-                Some(outcome.weights),
+                {
+                    variance_factor = outcome.variance_factor;
+                    Some(outcome.weights)
+                },
             )
         } else {
             let outcome = optimize(&mut problem, &kernel, &settings, &mut cache)?;
@@ -359,6 +367,7 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
         stop,
         outliers,
         costs,
+        variance_factor,
         edge_inliers: (0..norms.len()).map(|k| !is_outlier(k)).collect(),
     })
 }
