@@ -12,7 +12,7 @@ use skid_io::g2o::{Edge, PoseGraph, write_g2o_3d};
 
 use crate::RuntimeError;
 use crate::host::RobotHost;
-use crate::metrics::{alpha_from_beta, associated};
+use crate::metrics::{alpha_frames, associated};
 use crate::settings::{information_from_covariance, loop_information};
 
 /// Edge length of the merged map's voxels, metres.
@@ -35,18 +35,13 @@ pub(crate) fn output_error(path: &Path, message: impl ToString) -> RuntimeError 
 
 /// Where each robot's map frame sits in robot 0's; `None` for robots robot 0 never closed a loop with.
 pub fn frames_in_alpha(robots: &[RobotHost]) -> Vec<Option<Pose>> {
-    let Some(alpha) = robots.first() else {
-        return Vec::new();
-    };
-    robots
-        .iter()
-        .map(|robot| {
-            if robot.robot == alpha.robot {
-                Some(Pose::identity())
-            } else {
-                alpha_from_beta(alpha, robot).ok().map(|(frame, _)| frame)
-            }
-        })
+    map_frames(&alpha_frames(robots))
+}
+
+/// The map frames of [`alpha_frames`]' fits.
+pub(crate) fn map_frames(fits: &[Result<(Pose, usize), String>]) -> Vec<Option<Pose>> {
+    fits.iter()
+        .map(|fit| fit.as_ref().ok().map(|(frame, _)| *frame))
         .collect()
 }
 

@@ -130,8 +130,30 @@ pub fn alpha_from_beta(alpha: &RobotHost, beta: &RobotHost) -> Result<(Pose, usi
     Ok((fit.isometry, in_alpha.len()))
 }
 
-fn alignment_metrics(alpha: &RobotHost, beta: &RobotHost) -> Result<AlignmentMetrics, String> {
-    let (alpha_from_beta, shared_keyframes) = alpha_from_beta(alpha, beta)?;
+/// `T^α_β` and the number of shared keyframes for every robot, robot 0 being α (identity, all its
+/// keyframes), or why it is unknown. Computed once per run for both metrics.json and the map frames.
+pub fn alpha_frames(robots: &[RobotHost]) -> Vec<Result<(Pose, usize), String>> {
+    let Some(alpha) = robots.first() else {
+        return Vec::new();
+    };
+    robots
+        .iter()
+        .map(|robot| {
+            if robot.robot == alpha.robot {
+                Ok((Pose::identity(), robot.keyframes.len()))
+            } else {
+                alpha_from_beta(alpha, robot)
+            }
+        })
+        .collect()
+}
+
+fn alignment_metrics(
+    alpha: &RobotHost,
+    beta: &RobotHost,
+    frame: &Result<(Pose, usize), String>,
+) -> Result<AlignmentMetrics, String> {
+    let (alpha_from_beta, shared_keyframes) = frame.clone()?;
     let (gt_alpha, est_alpha) = associated(alpha);
     let (gt_beta, est_beta) = associated(beta);
     let result = alpha_beta(
@@ -156,7 +178,11 @@ fn alignment_metrics(alpha: &RobotHost, beta: &RobotHost) -> Result<AlignmentMet
     })
 }
 
-fn robot_metrics(robots: &[RobotHost], host: &RobotHost) -> RobotMetrics {
+fn robot_metrics(
+    robots: &[RobotHost],
+    host: &RobotHost,
+    frame: &Result<(Pose, usize), String>,
+) -> RobotMetrics {
     let (truth, estimate) = associated(host);
     let trajectory = if truth.len() >= 3 {
         trajectory_metrics(&truth, &estimate)
@@ -166,7 +192,7 @@ fn robot_metrics(robots: &[RobotHost], host: &RobotHost) -> RobotMetrics {
         None
     };
     let (alignment, alignment_unavailable) = match robots.first() {
-        Some(alpha) if alpha.robot != host.robot => match alignment_metrics(alpha, host) {
+        Some(alpha) if alpha.robot != host.robot => match alignment_metrics(alpha, host, frame) {
             Ok(metrics) => (Some(metrics), None),
             Err(reason) => (None, Some(reason)),
         },
@@ -194,8 +220,16 @@ fn robot_metrics(robots: &[RobotHost], host: &RobotHost) -> RobotMetrics {
 impl RunMetrics {
     /// Computes every robot's metrics; robot 0 is α.
     pub fn of(name: &str, robots: &[RobotHost]) -> Self {
-        let robots_metrics: Vec<RobotMetrics> =
-            robots.iter().map(|host| robot_metrics(robots, host)).collect();
+        Self::with_frames(name, robots, &alpha_frames(robots))
+    }
+
+    /// [`RunMetrics::of`] with the frames of [`alpha_frames`] already computed.
+    pub fn with_frames(name: &str, robots: &[RobotHost], frames: &[Result<(Pose, usize), String>]) -> Self {
+        let robots_metrics: Vec<RobotMetrics> = robots
+            .iter()
+            .zip(frames)
+            .map(|(host, frame)| robot_metrics(robots, host, frame))
+            .collect();
         Self {
             name: name.to_owned(),
             inter_robot_loops_found: robots_metrics.iter().map(|r| r.loops.candidates_inter).sum(),

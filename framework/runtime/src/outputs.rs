@@ -8,9 +8,9 @@ use skid_core::Pose;
 use skid_io::ply::{PlyFormat, write_ply};
 use skid_io::trajectory::{StampedPose, write_kitti_poses, write_tum};
 
-use crate::artifacts::{frames_in_alpha, merged_map, output_error, write_plots, write_pose_graphs};
+use crate::artifacts::{map_frames, merged_map, output_error, write_plots, write_pose_graphs};
 use crate::host::RobotHost;
-use crate::metrics::RunMetrics;
+use crate::metrics::{RunMetrics, alpha_frames};
 use crate::summary::RunSummary;
 use crate::{Fleet, RuntimeError};
 
@@ -65,7 +65,8 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, Run
         write_trajectories(&folder, robot)?;
     }
     write_pose_graphs(&folder, &fleet.robots)?;
-    let frames = frames_in_alpha(&fleet.robots);
+    let fits = alpha_frames(&fleet.robots);
+    let frames = map_frames(&fits);
     let map = merged_map(&fleet.robots, &frames);
     if !map.is_empty() {
         let path = folder.join("map.ply");
@@ -74,7 +75,7 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, Run
     write_plots(&folder, &fleet.robots, &frames, &map)?;
     write_json(
         &folder.join("metrics.json"),
-        &RunMetrics::of(&fleet.config.run.name, &fleet.robots),
+        &RunMetrics::with_frames(&fleet.config.run.name, &fleet.robots, &fits),
     )?;
     write_json(&folder.join("summary.json"), summary)?;
     Ok(folder)
