@@ -146,6 +146,19 @@ fn run_writes_trajectories_and_a_summary() {
     assert!(robots[1]["alignment"].is_object() || robots[1]["alignment_unavailable"].is_string());
     let g2o = std::fs::read_to_string(folder.join("robot0/pose_graph.g2o")).unwrap();
     assert!(g2o.lines().any(|l| l.starts_with("VERTEX_SE3:QUAT")), "{g2o}");
+    // Every edge joins two vertices of the file.
+    let vertices: std::collections::BTreeSet<&str> = g2o
+        .lines()
+        .filter(|l| l.starts_with("VERTEX_SE3:QUAT"))
+        .filter_map(|l| l.split_whitespace().nth(1))
+        .collect();
+    for edge in g2o.lines().filter(|l| l.starts_with("EDGE_SE3:QUAT")) {
+        let ends: Vec<&str> = edge.split_whitespace().skip(1).take(2).collect();
+        assert!(
+            ends.iter().all(|id| vertices.contains(id)),
+            "dangling edge: {edge}"
+        );
+    }
 }
 
 fn skid_io_read_tum(path: &Path) -> usize {

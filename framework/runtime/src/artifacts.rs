@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use skid_core::slots::GraphView;
+use skid_core::slots::{GraphView, LoopClosure};
 use skid_core::{KeyframeId, Point, Pose};
 use skid_eval::plot::PlotOptions;
 use skid_eval::{AlignmentKind, ape, plot};
@@ -104,7 +104,15 @@ pub fn pose_graph(robot: &RobotHost) -> PoseGraph<Pose> {
             });
         }
     }
-    for closure in robot.loops.values() {
+    // A loop received from a peer before that peer's odometry reached its keyframe has no vertex yet;
+    // it is left out so the file stays a valid graph.
+    let has_vertex = |id: KeyframeId| graph.vertices.contains_key(&g2o_vertex_id(id));
+    let drawable: Vec<&LoopClosure> = robot
+        .loops
+        .values()
+        .filter(|closure| has_vertex(closure.target) && has_vertex(closure.source))
+        .collect();
+    for closure in drawable {
         graph.edges.push(Edge {
             from: g2o_vertex_id(closure.target),
             to: g2o_vertex_id(closure.source),
