@@ -264,8 +264,6 @@ impl Backend for PgoBackend {
         let report = if self.config.robust == RobustMode::Gnc {
             let gnc = GncSettings {
                 threshold_squared: self.kernel.width * self.kernel.width,
-                mu_factor: 1.4,
-                max_outer_iterations: 100,
                 inner: settings,
                 ..GncSettings::default()
             };

@@ -298,24 +298,20 @@ pub fn optimize_pose_graph<G: GraphGroup<D>, const D: usize>(
         if options.robust == RobustMode::Gnc {
             let gnc = GncSettings {
                 threshold_squared: width * width,
-                mu_factor: 1.4,
-                max_outer_iterations: 100,
                 inner: settings,
                 ..GncSettings::default()
             };
             let outcome = gnc_tls(&mut problem, &gnc, &mut cache)?;
             let stop = format!("{:?}", outcome.last.stop);
             costs.clone_from(&outcome.last.costs);
+            variance_factor = outcome.variance_factor;
             (
                 outcome.total_iterations,
                 outcome.factorizations,
                 outcome.last.final_cost,
                 outcome.last.converged(),
                 stop,
-                {
-                    variance_factor = outcome.variance_factor;
-                    Some(outcome.weights)
-                },
+                Some(outcome.weights),
             )
         } else {
             let outcome = optimize(&mut problem, &kernel, &settings, &mut cache)?;

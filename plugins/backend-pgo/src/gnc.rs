@@ -118,11 +118,11 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
             "GNC needs a positive threshold and a mu factor above 1".into(),
         ));
     }
-    let start = problem.poses.clone();
+    let start = settings.rescale.then(|| problem.poses.clone());
     let mut outcome = graduate(problem, settings, settings.threshold_squared, cache)?;
-    if !settings.rescale {
+    let Some(start) = start else {
         return Ok(outcome);
-    }
+    };
     let initial_cost = outcome.initial_cost;
     let variance = variance_factor(problem, &outcome.weights);
     if let Some(variance) = variance.filter(|v| *v < 1.0) {
@@ -165,8 +165,7 @@ fn readmit<G: PoseGroup<D>, const D: usize>(
     outcome: &mut GncOutcome,
     cache: &mut SystemCache<D>,
 ) -> Result<(), PgoError> {
-    let mut polish = settings.inner;
-    polish.max_iterations = polish.max_iterations.max(50);
+    let polish = polish_settings(&settings.inner);
     for _ in 0..10 {
         let norms = problem.squared_norms();
         let mut changed = false;
@@ -189,6 +188,14 @@ fn readmit<G: PoseGroup<D>, const D: usize>(
         outcome.factorizations += outcome.last.factorizations;
     }
     Ok(())
+}
+
+/// The inner settings for a solve with binary weights: at least 50 steps, as it may have far to go.
+fn polish_settings(inner: &LmSettings) -> LmSettings {
+    LmSettings {
+        max_iterations: inner.max_iterations.max(50),
+        ..*inner
+    }
 }
 
 /// One graduated run at threshold `c2`.
@@ -252,9 +259,12 @@ fn graduate<G: PoseGroup<D>, const D: usize>(
                 };
             }
         }
-        let mut polish = settings.inner;
-        polish.max_iterations = polish.max_iterations.max(50);
-        last = optimize(problem, &FixedWeights(&weights), &polish, cache)?;
+        last = optimize(
+            problem,
+            &FixedWeights(&weights),
+            &polish_settings(&settings.inner),
+            cache,
+        )?;
         total_iterations += last.iterations;
         factorizations += last.factorizations;
     } else if settings.start_from_odometry {
