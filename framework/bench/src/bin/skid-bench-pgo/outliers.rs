@@ -322,40 +322,27 @@ fn case(report: &mut Report, data: &std::path::Path, file: &str, count: usize, w
         let verify_s = start.elapsed().as_secs_f64();
         let accepted: BTreeSet<usize> = pcm.accepted().iter().map(|id| id.0 as usize).collect();
         let loop_set: BTreeSet<usize> = loops.iter().copied().collect();
-        let (solution, optimise_s) = optimise(
-            &corrupted,
-            &|k| !loop_set.contains(&k) || accepted.contains(&k),
-            &options,
-        )?;
+        let in_pcm_set = |k: usize| !loop_set.contains(&k) || accepted.contains(&k);
+        let (solution, optimise_s) = optimise(&corrupted, &in_pcm_set, &options)?;
         push("pcm", &accepted, &solution, verify_s, optimise_s)?;
         // PCM's set, then GNC in the back-end: what `[verifier] pcm` with `[backend.pgo] robust = "gnc"` does.
-        let (solution, report) = optimise_with_report(
-            &corrupted,
-            &|k| !loop_set.contains(&k) || accepted.contains(&k),
-            &gnc,
-        )?;
-        let kept: Vec<usize> = (0..report.edge_inliers.len())
-            .filter(|&k| report.edge_inliers[k])
-            .collect();
-        let kept_edges: Vec<usize> = (0..edge_count(&corrupted))
-            .filter(|&k| !loop_set.contains(&k) || accepted.contains(&k))
-            .collect();
-        let kept_loops: BTreeSet<usize> = kept
-            .iter()
-            .map(|&k| kept_edges[k])
-            .filter(|k| loop_set.contains(k))
+        // The report's inlier flags follow the edges of PCM's set, in order.
+        let (solution, report) = optimise_with_report(&corrupted, &in_pcm_set, &gnc)?;
+        let kept_loops: BTreeSet<usize> = (0..edge_count(&corrupted))
+            .filter(|&k| in_pcm_set(k))
+            .zip(&report.edge_inliers)
+            .filter(|(k, inlier)| **inlier && loop_set.contains(k))
+            .map(|(k, _)| k)
             .collect();
         push("pcm+gnc", &kept_loops, &solution, verify_s, report.time_s)?;
     }
     let (solution, gnc_report) = optimise_with_report(&corrupted, &|_| true, &gnc)?;
-    let optimise_s = gnc_report.time_s;
-    let outliers: BTreeSet<usize> = loops
+    let accepted: BTreeSet<usize> = loops
         .iter()
         .copied()
-        .filter(|&k| !gnc_report.edge_inliers[k])
+        .filter(|&k| gnc_report.edge_inliers[k])
         .collect();
-    let accepted: BTreeSet<usize> = loops.iter().copied().filter(|k| !outliers.contains(k)).collect();
-    push("gnc", &accepted, &solution, 0.0, optimise_s)
+    push("gnc", &accepted, &solution, 0.0, gnc_report.time_s)
 }
 
 /// The robustness table.
