@@ -1,24 +1,28 @@
-//! Sources that read recorded data from files: `kitti` (a KITTI odometry sequence folder) and
-//! `cloud_dir` (a folder of PCD or PLY clouds with an optional TUM trajectory).
+//! Sources that read recorded data from files: `kitti` (a KITTI odometry sequence folder),
+//! `cloud_dir` (a folder of PCD or PLY clouds with an optional TUM trajectory) and `bag` (ROS 1 and
+//! ROS 2 bags and MCAP files).
 //!
 //! Both can turn one long sequence into several robots with `split = true`: robot `i` of `N` reads the
 //! `i`-th of `N` consecutive segments (plus `split_overlap_scans` scans of the previous one), as
 //! multi-robot papers do with KITTI 00 and 08. Relative paths that do not exist from the current folder
 //! are looked up under the data folder (`SKID_DATA_DIR`, default `../shared/data`).
 
+mod bag;
+mod bag_stream;
 mod cloud_dir;
 mod kitti;
 mod segment;
 
 pub use segment::SplitConfig;
 
+pub use bag::{BagConfig, BagSource};
 pub use cloud_dir::{CloudDirConfig, CloudDirSource};
 pub use kitti::{KittiConfig, KittiSource};
 
 use skid_core::slots::Source;
 use skid_core::{PluginContext, PluginEntry, PluginError, Registry};
 
-/// Registers `kitti` and `cloud_dir` in the source slot.
+/// Registers `kitti`, `cloud_dir` and `bag` in the source slot.
 pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     registry.source.register(PluginEntry::new(
         "kitti",
@@ -30,6 +34,13 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         "Folder of PCD/PLY clouds in name order, with an optional TUM trajectory as ground truth",
         |config: CloudDirConfig, context: &PluginContext| {
             Ok(Box::new(CloudDirSource::open(config, context)?) as Box<dyn Source>)
+        },
+    )?)?;
+    registry.source.register(PluginEntry::new(
+        "bag",
+        "ROS 1 bag, ROS 2 bag folder (MCAP or sqlite3) or MCAP file: PointCloud2 scans, Imu, ground truth",
+        |config: BagConfig, context: &PluginContext| {
+            Ok(Box::new(BagSource::open(config, context)?) as Box<dyn Source>)
         },
     )?)?;
     Ok(())

@@ -1,0 +1,26 @@
+//! Reading robot recordings without a ROS installation: ROS 1 bags (v2.0; uncompressed, bz2 and lz4
+//! chunks; with or without an index), ROS 2 bags (MCAP or sqlite3 storage, CDR messages) and bare MCAP
+//! files, streamed a chunk at a time; the ROS 1 and CDR serializations; and the message types SKiD
+//! needs (`sensor_msgs/PointCloud2` in any driver's field layout, `sensor_msgs/Imu`, poses from
+//! `nav_msgs/Odometry`, `geometry_msgs/PoseStamped` and `tf2_msgs/TFMessage`).
+//!
+//! Specifications followed: the ROS bag format 2.0 (wiki.ros.org/Bags/Format/2.0), the MCAP format
+//! (mcap.dev/spec), rosbag2's sqlite3 storage schema, ROS 1 message serialization
+//! (wiki.ros.org/msg, roscpp serialization) and OMG CDR (XCDR1) as ROS 2 middlewares use it.
+
+mod bag;
+mod connection;
+mod error;
+mod mcap_file;
+pub mod msgs;
+mod ros1;
+mod sqlite;
+mod wire;
+
+pub use bag::{Bag, Storage, bag_files, detect_storage};
+pub use connection::{Connection, MessageReader, RawMessage, normalise_type};
+pub use error::{BagError, DecodeError};
+pub use mcap_file::McapReader;
+pub use ros1::Ros1Reader;
+pub use sqlite::SqliteReader;
+pub use wire::{Encoding, Header, WireReader};
