@@ -2,7 +2,8 @@
 //!
 //! - `skid run [PROFILE]` runs the fleet described by the default configuration (plus a profile);
 //! - `skid plugins` lists every registered plugin with its default parameters;
-//! - `skid config show|check` prints the merged configuration or validates a file.
+//! - `skid config show|check` prints the merged configuration or validates a file;
+//! - `skid bag info` describes a ROS bag or MCAP file.
 //!
 //! `-v`/`-vv` and `-q` set the log level; `RUST_LOG` overrides both.
 
@@ -110,13 +111,18 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Inspect ROS bags and MCAP files.
+    #[command(subcommand)]
+    Bag(BagCommand),
     /// The simulator on its own: export KITTI-format folders or a preview PNG.
     Sim {
         #[command(subcommand)]
         command: SimCommand,
     },
-    /// Run the configured odometry alone on a KITTI-format folder; writes TUM and KITTI trajectories.
+    /// Run the configured odometry alone on a KITTI-format folder or a bag (topics from `[source.bag]`,
+    /// e.g. `--set source.bag.points_topic=/points`); writes TUM and KITTI trajectories.
     Odometry {
+        /// A KITTI sequence folder (with `velodyne/`), a ROS 1 `.bag`, a ROS 2 bag folder or an `.mcap` file.
         folder: PathBuf,
         #[arg(long)]
         out: Option<PathBuf>,
@@ -128,6 +134,18 @@ enum Command {
     Stage {
         #[command(subcommand)]
         command: StageCommand,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+enum BagCommand {
+    /// Topics, message types, counts, rates, duration, and each point-cloud topic's field layout.
+    Info {
+        /// A ROS 1 `.bag`, a ROS 2 bag folder (`metadata.yaml` + `.mcap`/`.db3`) or an `.mcap` file.
+        path: PathBuf,
+        /// Print one JSON line instead of the table.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -275,6 +293,7 @@ fn main() -> ExitCode {
         Command::Sim {
             command: SimCommand::Preview { flags, out, size_px },
         } => commands::extra::sim_preview(&flags.args(), &out, size_px),
+        Command::Bag(BagCommand::Info { path, json }) => commands::bag::info(&path, json),
         Command::Odometry { folder, out, layers } => {
             commands::tools::odometry(&registry, &folder, out.as_deref(), &layers)
         }

@@ -1,5 +1,6 @@
 //! The subcommands' bodies.
 
+pub mod bag;
 pub mod extra;
 pub mod robot;
 pub mod tools;

@@ -118,9 +118,15 @@ pub fn register(
 /// `skid odometry SEQ_DIR [--out DIR]`: runs the configured odometry on a KITTI-format folder.
 pub fn odometry(registry: &Registry, folder: &Path, out: Option<&Path>, layers: &LayerArgs) -> Result<()> {
     let mut layers = layers.clone();
-    layers.sets.push("source.plugin=kitti".into());
+    // A folder with `velodyne/` is a KITTI sequence; anything else is read as a bag (ROS 1, ROS 2, MCAP).
+    let source_name = if folder.join("velodyne").is_dir() {
+        "kitti"
+    } else {
+        "bag"
+    };
+    layers.sets.push(format!("source.plugin={source_name}"));
     layers.sets.push(format!(
-        "source.kitti.path={}",
+        "source.{source_name}.path={}",
         toml_string(&folder.display().to_string())
     ));
     layers.sets.push("run.robots=1".into());
@@ -132,7 +138,7 @@ pub fn odometry(registry: &Registry, folder: &Path, out: Option<&Path>, layers: 
     let context = context();
     let mut source = registry
         .source
-        .create("kitti", &config.slot(Slot::Source).params, &context)?;
+        .create(source_name, &config.slot(Slot::Source).params, &context)?;
     let mut odometry =
         registry
             .odometry
