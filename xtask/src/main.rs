@@ -1,6 +1,7 @@
 //! `cargo xtask`: the project's own automation.
 //!
-//! - `ci`: format check, clippy with warnings denied, and the test suite (what `.ci/run` calls);
+//! - `ci`: format check, clippy with warnings denied, and the test suite (what `.ci/run` calls), with
+//!   `SKID_PYTHON` pointing at a venv of the pinned Python packages the tests use as independent writers;
 //! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code);
 //! - `bench <profile>`: runs a benchmark profile in release mode, writing `target/bench/<profile>/`
 //!   (with `--config configs/bench/<profile>.toml` when that file exists);
@@ -109,8 +110,11 @@ fn ci() -> Result<()> {
     ]);
     clippy_tests.args(["-A", "clippy::unwrap_used", "-A", "clippy::expect_used"]);
     run(clippy_tests)?;
+    // The bag tests write their fixtures with independent Python libraries (rosbags, mcap).
+    let python = xtask::python::ensure_python(&xtask::workspace_root())?;
     let mut test = cargo();
     test.args(["test", "--workspace"]);
+    test.env(xtask::python::PYTHON_VAR, python);
     run(test)
 }
 
@@ -153,6 +157,11 @@ fn bench(profile: &str, args: &[String]) -> Result<()> {
         "--",
     ]);
     command.arg("--out").arg(&out);
+    // Benchmarks measure the Python peers (rosbags, kiss-icp, ...) in the same run.
+    command.env(
+        xtask::python::PYTHON_VAR,
+        xtask::python::ensure_python(&xtask::workspace_root())?,
+    );
     let parameters = xtask::workspace_root()
         .join("configs/bench")
         .join(format!("{profile}.toml"));

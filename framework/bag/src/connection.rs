@@ -2,6 +2,7 @@
 //! serialization) and [`RawMessage`]s (one serialized message with its receive time), and the
 //! [`MessageReader`] trait the ROS 1, MCAP and sqlite3 readers implement.
 
+use std::ops::{Deref, Range};
 use std::sync::Arc;
 
 use crate::error::BagError;
@@ -46,7 +47,67 @@ pub struct RawMessage {
     /// When the recorder received it (bag time), nanoseconds since the epoch.
     pub log_time_nanos: u64,
     /// The serialized message (for CDR, with its encapsulation header).
-    pub data: Vec<u8>,
+    pub data: MessageBytes,
+}
+
+/// A message's bytes: a range of a shared buffer (a decompressed ROS 1 chunk, which the reader reuses
+/// once every message of it has been dropped) or a buffer of its own.
+#[derive(Clone, Debug)]
+pub struct MessageBytes {
+    buffer: Arc<Vec<u8>>,
+    range: Range<usize>,
+}
+
+impl MessageBytes {
+    /// `range` of `buffer`; the range must lie inside the buffer.
+    pub(crate) fn shared(buffer: &Arc<Vec<u8>>, range: Range<usize>) -> Self {
+        debug_assert!(range.end <= buffer.len());
+        Self {
+            buffer: Arc::clone(buffer),
+            range,
+        }
+    }
+}
+
+/// Hands out message buffers, reusing the last one when every message made from it has been dropped,
+/// so reading a bag does not allocate (and page-fault) a fresh buffer per message.
+#[derive(Debug, Default)]
+pub(crate) struct BufferPool {
+    spare: Option<Arc<Vec<u8>>>,
+}
+
+impl BufferPool {
+    /// A buffer holding a copy of `bytes`.
+    pub(crate) fn copy_of(&mut self, bytes: &[u8]) -> MessageBytes {
+        let mut buffer = self
+            .spare
+            .take()
+            .and_then(|spare| Arc::try_unwrap(spare).ok())
+            .unwrap_or_default();
+        buffer.clear();
+        buffer.extend_from_slice(bytes);
+        let buffer = Arc::new(buffer);
+        self.spare = Some(Arc::clone(&buffer));
+        MessageBytes::shared(&buffer, 0..bytes.len())
+    }
+}
+
+impl From<Vec<u8>> for MessageBytes {
+    fn from(bytes: Vec<u8>) -> Self {
+        let range = 0..bytes.len();
+        Self {
+            buffer: Arc::new(bytes),
+            range,
+        }
+    }
+}
+
+impl Deref for MessageBytes {
+    type Target = [u8];
+
+    fn deref(&self) -> &[u8] {
+        &self.buffer[self.range.clone()]
+    }
 }
 
 /// A container reader that streams the messages of selected topics in file order, holding at most one

@@ -18,7 +18,7 @@ mod sqlite;
 mod wire;
 
 pub use bag::{Bag, Storage, bag_files, detect_storage};
-pub use connection::{Connection, MessageReader, RawMessage, normalise_type};
+pub use connection::{Connection, MessageBytes, MessageReader, RawMessage, normalise_type};
 pub use error::{BagError, DecodeError};
 pub use mcap_file::McapReader;
 pub use ros1::Ros1Reader;

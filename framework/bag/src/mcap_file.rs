@@ -16,7 +16,7 @@ use std::sync::Arc;
 use mcap::records::Record;
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
-use crate::connection::{Connection, MessageReader, RawMessage};
+use crate::connection::{BufferPool, Connection, MessageReader, RawMessage};
 use crate::error::BagError;
 use crate::wire::Encoding;
 
@@ -104,6 +104,7 @@ pub struct McapReader {
     declarations: Declarations,
     summary_complete: bool,
     selected: Option<HashSet<String>>,
+    buffers: BufferPool,
     finished: bool,
 }
 
@@ -130,6 +131,7 @@ impl McapReader {
             declarations,
             summary_complete,
             selected: None,
+            buffers: BufferPool::default(),
             finished: false,
         })
     }
@@ -212,6 +214,7 @@ impl MessageReader for McapReader {
             reader,
             declarations,
             selected,
+            buffers,
             finished,
             ..
         } = self;
@@ -260,7 +263,7 @@ impl MessageReader for McapReader {
                     return Ok(Some(RawMessage {
                         connection: Arc::clone(connection),
                         log_time_nanos: header.log_time,
-                        data: data.into_owned(),
+                        data: buffers.copy_of(&data),
                     }));
                 }
             }

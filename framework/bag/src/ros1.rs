@@ -19,7 +19,7 @@ use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use crate::connection::{Connection, MessageReader, RawMessage};
+use crate::connection::{Connection, MessageBytes, MessageReader, RawMessage};
 use crate::error::BagError;
 use crate::wire::Encoding;
 
@@ -114,7 +114,7 @@ impl<'a> Fields<'a> {
 
 /// A decompressed chunk being read.
 struct OpenChunk {
-    data: Vec<u8>,
+    data: Arc<Vec<u8>>,
     position: usize,
     file_offset: u64,
 }
@@ -131,6 +131,10 @@ pub struct Ros1Reader {
     connections: HashMap<u32, Arc<Connection>>,
     selected: Option<HashSet<String>>,
     chunk: Option<OpenChunk>,
+    /// The last chunk's buffer, reused for the next chunk once no message of it is alive.
+    spare_chunk: Option<Arc<Vec<u8>>>,
+    /// The compressed bytes of the chunk being opened (reused).
+    compressed: Vec<u8>,
     finished: bool,
 }
 
@@ -149,6 +153,8 @@ impl Ros1Reader {
             connections: HashMap::new(),
             selected: None,
             chunk: None,
+            spare_chunk: None,
+            compressed: Vec::new(),
             finished: false,
         };
         let mut magic = [0u8; 13];
@@ -303,10 +309,31 @@ impl Ros1Reader {
                 "announces {size} uncompressed bytes (limit {MAX_DATA_BYTES})"
             )));
         }
-        let compressed = self.read_data(data_len)?;
-        let data = decompress(&compression, compressed, size as usize).map_err(malformed)?;
+        let mut buffer = self
+            .spare_chunk
+            .take()
+            .and_then(|spare| Arc::try_unwrap(spare).ok())
+            .unwrap_or_default();
+        if compression == "none" {
+            if size != data_len {
+                return Err(malformed(format!(
+                    "an uncompressed chunk of {data_len} bytes says it holds {size}"
+                )));
+            }
+            resize_for(&mut buffer, size as usize);
+            self.read_exact(&mut buffer, "a chunk")?;
+        } else {
+            let mut compressed = std::mem::take(&mut self.compressed);
+            resize_for(&mut compressed, data_len as usize);
+            let read = self.read_exact(&mut compressed, "a chunk");
+            let decompressed = read.and_then(|()| {
+                decompress_into(&compression, &compressed, size as usize, &mut buffer).map_err(malformed)
+            });
+            self.compressed = compressed;
+            decompressed?;
+        }
         self.chunk = Some(OpenChunk {
-            data,
+            data: Arc::new(buffer),
             position: 0,
             file_offset: offset,
         });
@@ -317,6 +344,7 @@ impl Ros1Reader {
     fn next_in_chunk(&mut self) -> Result<Option<RawMessage>, BagError> {
         while let Some(mut chunk) = self.chunk.take() {
             if chunk.position >= chunk.data.len() {
+                self.spare_chunk = Some(chunk.data);
                 break;
             }
             let offset = chunk.file_offset;
@@ -330,7 +358,12 @@ impl Ros1Reader {
                 Ok(op::CONNECTION) => Record::Connection(connection_from(&fields, data)),
                 Ok(op::MESSAGE_DATA) => Record::Message(message_from(&fields).map(|(id, time)| {
                     let wanted = self.connections.get(&id).is_none_or(|c| self.is_selected(c));
-                    (id, time, wanted.then(|| data.to_vec()))
+                    let start = at + 8 + header.len();
+                    (
+                        id,
+                        time,
+                        wanted.then(|| MessageBytes::shared(&chunk.data, start..start + data.len())),
+                    )
                 })),
                 _ => Record::Other,
             };
@@ -391,7 +424,7 @@ impl Ros1Reader {
                 self.handle_record(Record::Connection(connection_from(&fields, &data)), record_offset)
             }),
             Ok(op::MESSAGE_DATA) => self.read_data(data_len).and_then(|data| {
-                let message = message_from(&fields).map(|(id, time)| (id, time, Some(data)));
+                let message = message_from(&fields).map(|(id, time)| (id, time, Some(data.into())));
                 self.handle_record(Record::Message(message), record_offset)
             }),
             _ => self.skip(data_len).map(|()| None),
@@ -418,7 +451,7 @@ impl Ros1Reader {
 enum Record {
     Connection(Result<(u32, Connection), String>),
     /// Connection id, receive time, and the data when the topic is selected.
-    Message(Result<(u32, u64, Option<Vec<u8>>), String>),
+    Message(Result<(u32, u64, Option<MessageBytes>), String>),
     Other,
 }
 
@@ -471,39 +504,48 @@ fn split_record(bytes: &[u8]) -> Result<(&[u8], &[u8]), String> {
     Ok((header, data))
 }
 
-/// Decompresses a chunk, checking it yields exactly the announced size.
-fn decompress(compression: &str, compressed: Vec<u8>, size: usize) -> Result<Vec<u8>, String> {
-    let data = match compression {
-        "none" => compressed,
-        "bz2" => read_bounded(bzip2::read::BzDecoder::new(compressed.as_slice()), size, "bz2")?,
-        "lz4" => read_bounded(
-            lz4_flex::frame::FrameDecoder::new(compressed.as_slice()),
-            size,
-            "lz4",
-        )?,
-        other => {
-            return Err(format!(
-                "unknown compression `{other}` (bags use none, bz2 or lz4)"
-            ));
-        }
-    };
-    if data.len() != size {
-        return Err(format!(
-            "decompresses to {} bytes, its header says {size}",
-            data.len()
-        ));
+/// Sets a reused buffer's length to `len`, zero-filling only what it grows by.
+fn resize_for(buffer: &mut Vec<u8>, len: usize) {
+    if buffer.len() < len {
+        buffer.resize(len, 0);
+    } else {
+        buffer.truncate(len);
     }
-    Ok(data)
 }
 
-/// Reads at most one byte more than `size` from a decompressor, so a lying size cannot grow memory.
-fn read_bounded(reader: impl Read, size: usize, name: &str) -> Result<Vec<u8>, String> {
-    let mut data = Vec::with_capacity(size);
-    reader
-        .take(size as u64 + 1)
-        .read_to_end(&mut data)
-        .map_err(|e| format!("{name} data is corrupt: {e}"))?;
-    Ok(data)
+/// Decompresses a chunk into `out`, checking it yields exactly the announced size (so a lying size
+/// can neither grow memory past it nor hide a truncated chunk).
+fn decompress_into(
+    compression: &str,
+    compressed: &[u8],
+    size: usize,
+    out: &mut Vec<u8>,
+) -> Result<(), String> {
+    match compression {
+        "bz2" => read_exactly(bzip2::read::BzDecoder::new(compressed), size, out, "bz2"),
+        "lz4" => read_exactly(lz4_flex::frame::FrameDecoder::new(compressed), size, out, "lz4"),
+        other => Err(format!(
+            "unknown compression `{other}` (bags use none, bz2 or lz4)"
+        )),
+    }
+}
+
+fn read_exactly(mut reader: impl Read, size: usize, out: &mut Vec<u8>, name: &str) -> Result<(), String> {
+    resize_for(out, size);
+    reader.read_exact(out).map_err(|e| match e.kind() {
+        std::io::ErrorKind::UnexpectedEof => {
+            format!("{name} data decompresses to fewer bytes than the {size} its header says")
+        }
+        _ => format!("{name} data is corrupt: {e}"),
+    })?;
+    let mut extra = [0u8; 1];
+    match reader.read(&mut extra) {
+        Ok(0) => Ok(()),
+        Ok(_) => Err(format!(
+            "{name} data decompresses to more than the {size} bytes its header says"
+        )),
+        Err(e) => Err(format!("{name} data is corrupt after {size} bytes: {e}")),
+    }
 }
 
 impl MessageReader for Ros1Reader {

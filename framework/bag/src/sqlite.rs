@@ -143,7 +143,7 @@ impl SqliteReader {
             self.page.push_back(RawMessage {
                 connection: Arc::clone(connection),
                 log_time_nanos,
-                data,
+                data: data.into(),
             });
         }
         if fetched < PAGE_ROWS {

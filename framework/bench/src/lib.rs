@@ -2,8 +2,9 @@
 //! statistics, the report (JSON + Markdown) every profile writes into `target/bench/<profile>/`, and the
 //! experiments several profiles share — the SKiD-SLAM paper's evaluation (Kim et al., "SKiD-SLAM"):
 //! place recognition ([`place_recognition`]), registration ([`registration`]), descriptor memory
-//! ([`memory`]), the two-robot SLAM comparison ([`slam`]) and message latency ([`latency`]).
+//! ([`memory`]), the two-robot SLAM comparison ([`slam`]) and message latency ([`latency`]); and bag decoding beside rosbags ([`bag_io`]).
 
+pub mod bag_io;
 pub mod latency;
 pub mod memory;
 pub mod place_recognition;

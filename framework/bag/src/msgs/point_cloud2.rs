@@ -167,6 +167,7 @@ pub struct FieldSlot {
 
 impl FieldSlot {
     /// Reads the value of this field in one point's bytes (the slot is known to fit in the point).
+    #[inline(always)]
     fn read(&self, point: &[u8], big_endian: bool) -> f64 {
         let bytes = &point[self.offset..];
         macro_rules! number {
@@ -284,7 +285,15 @@ pub struct DecodedPoints {
 /// Converts a cloud's points with `layout`: positions, intensity, ring and the time offset from the
 /// header stamp in seconds.
 pub fn raw_points(cloud: &PointCloud2<'_>, layout: &CloudLayout) -> DecodedPoints {
-    let big_endian = cloud.is_bigendian;
+    if cloud.is_bigendian {
+        convert::<true>(cloud, layout)
+    } else {
+        convert::<false>(cloud, layout)
+    }
+}
+
+/// The conversion, compiled once per byte order so the per-point reads carry no byte-order branch.
+fn convert<const BIG_ENDIAN: bool>(cloud: &PointCloud2<'_>, layout: &CloudLayout) -> DecodedPoints {
     let step = cloud.point_step as usize;
     let width = cloud.width as usize;
     let stamp_s = cloud.header.stamp_nanos as f64 * 1e-9;
@@ -295,25 +304,28 @@ pub fn raw_points(cloud: &PointCloud2<'_>, layout: &CloudLayout) -> DecodedPoint
     if step == 0 {
         return decoded;
     }
+    let intensity = layout.intensity.as_ref().map(|(_, slot)| *slot);
+    let ring = layout.ring.as_ref().map(|(_, slot)| *slot);
+    // Integer times are nanoseconds, floating-point times seconds.
+    let time = layout
+        .time
+        .as_ref()
+        .map(|(_, slot)| (*slot, if slot.is_float() { 1.0 } else { 1e-9 }));
     for row in cloud.data.chunks_exact(cloud.row_step.max(1) as usize) {
         for point in row[..width * step].chunks_exact(step) {
-            let x = layout.x.read(point, big_endian) as f32;
-            let y = layout.y.read(point, big_endian) as f32;
-            let z = layout.z.read(point, big_endian) as f32;
+            let x = layout.x.read(point, BIG_ENDIAN) as f32;
+            let y = layout.y.read(point, BIG_ENDIAN) as f32;
+            let z = layout.z.read(point, BIG_ENDIAN) as f32;
             if !(x.is_finite() && y.is_finite() && z.is_finite()) {
                 decoded.dropped_non_finite += 1;
                 continue;
             }
-            let intensity = layout
-                .intensity
-                .as_ref()
-                .map_or(0.0, |(_, slot)| slot.read(point, big_endian) as f32);
-            let ring = layout.ring.as_ref().map_or(RawPoint::UNKNOWN_RING, |(_, slot)| {
-                slot.read(point, big_endian).clamp(0.0, f64::from(u16::MAX - 1)) as u16
+            let intensity = intensity.map_or(0.0, |slot| slot.read(point, BIG_ENDIAN) as f32);
+            let ring = ring.map_or(RawPoint::UNKNOWN_RING, |slot| {
+                slot.read(point, BIG_ENDIAN).clamp(0.0, f64::from(u16::MAX - 1)) as u16
             });
-            let time_offset_s = layout.time.as_ref().map_or(0.0, |(_, slot)| {
-                let value = slot.read(point, big_endian);
-                let seconds = if slot.is_float() { value } else { value * 1e-9 };
+            let time_offset_s = time.map_or(0.0, |(slot, scale)| {
+                let seconds = slot.read(point, BIG_ENDIAN) * scale;
                 let offset = if seconds.abs() > ABSOLUTE_TIME_THRESHOLD_S {
                     seconds - stamp_s
                 } else {

@@ -1,5 +1,6 @@
 //! `cargo xtask bench io`: read and write throughput of the file formats on the real shared data
-//! (KITTI 00 frames 0-15, the fast_gicp PCD pair, every g2o benchmark graph).
+//! (KITTI 00 frames 0-15, the fast_gicp PCD pair, every g2o benchmark graph), and bag decoding of the shared
+//! KITTI 00 ROS 1 and MCAP bags beside `rosbags` + numpy measured in the same run.
 
 use anyhow::{Context, Result};
 use clap::Parser;
@@ -91,7 +92,25 @@ fn main() -> Result<()> {
         g2o_ms.push(ms);
     }
     report.push(&row("g2o", "read", &lines, &g2o_ms))?;
-    report.write(&args.out)
+    report.write(&args.out)?;
+
+    // Bags: every PointCloud2 decoded into SKiD's points on one thread, beside rosbags + numpy.
+    let mut bags = Report::new("io/bags");
+    for (label, relative) in [
+        (
+            "ROS 1, LZ4 chunks",
+            "kitti_00_rosbags/kitti00_velodyne_ros1-lz4.bag",
+        ),
+        ("ROS 2, MCAP", "kitti_00_rosbags/kitti00_velodyne_mcap"),
+    ] {
+        bags.push(&skid_bench::bag_io::measure(
+            label,
+            &data.join(relative),
+            "/velodyne_points",
+            7,
+        )?)?;
+    }
+    bags.write(&args.out.join("bags"))
 }
 
 fn collect_g2o(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) -> Result<()> {
