@@ -4,6 +4,8 @@
 //! The Python interpreter is `$SKID_PYTHON` (`cargo xtask ci` creates a venv with the packages and sets
 //! it), else `python3`; without the packages the tests fail with the command that installs them.
 
+#![allow(dead_code)] // Each test binary uses a different part of it.
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
