@@ -23,11 +23,11 @@ fn read_everything(path: &Path) -> Result<usize, BagError> {
         };
         match message.connection.message_type.as_str() {
             "sensor_msgs/PointCloud2" => {
-                if let Ok(cloud) = PointCloud2::decode(&mut reader) {
-                    if let Ok(layout) = CloudLayout::detect(&cloud.fields) {
-                        let decoded = raw_points(&cloud, &layout);
-                        assert!(decoded.points.len() <= cloud.point_count());
-                    }
+                if let Ok(cloud) = PointCloud2::decode(&mut reader)
+                    && let Ok(layout) = CloudLayout::detect(&cloud.fields)
+                {
+                    let decoded = raw_points(&cloud, &layout);
+                    assert!(decoded.points.len() <= cloud.point_count());
                 }
             }
             "sensor_msgs/Imu" => drop(decode_imu(&mut reader)),
