@@ -110,7 +110,8 @@ impl<'a> WireReader<'a> {
         Ok(bytes)
     }
 
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], DecodeError> {
+    /// The next `N` bytes of an `N`-byte primitive, aligned (CDR) and in little-endian order.
+    pub fn take_aligned<const N: usize>(&mut self) -> Result<[u8; N], DecodeError> {
         self.align(N)?;
         let mut bytes = [0u8; N];
         bytes.copy_from_slice(self.take(N)?);
@@ -129,23 +130,23 @@ impl<'a> WireReader<'a> {
     }
 
     pub fn u32(&mut self) -> Result<u32, DecodeError> {
-        Ok(u32::from_le_bytes(self.array()?))
+        Ok(u32::from_le_bytes(self.take_aligned()?))
     }
 
     pub fn i32(&mut self) -> Result<i32, DecodeError> {
-        Ok(i32::from_le_bytes(self.array()?))
+        Ok(i32::from_le_bytes(self.take_aligned()?))
     }
 
     pub fn u64(&mut self) -> Result<u64, DecodeError> {
-        Ok(u64::from_le_bytes(self.array()?))
+        Ok(u64::from_le_bytes(self.take_aligned()?))
     }
 
     pub fn f32(&mut self) -> Result<f32, DecodeError> {
-        Ok(f32::from_le_bytes(self.array()?))
+        Ok(f32::from_le_bytes(self.take_aligned()?))
     }
 
     pub fn f64(&mut self) -> Result<f64, DecodeError> {
-        Ok(f64::from_le_bytes(self.array()?))
+        Ok(f64::from_le_bytes(self.take_aligned()?))
     }
 
     /// `N` consecutive `float64` (a fixed-size array or a geometry message of doubles).

@@ -162,3 +162,36 @@ fn a_bag_cut_short_by_a_crashed_recorder_reads_up_to_the_cut() {
         crashed.len()
     );
 }
+
+#[test]
+fn livox_custom_messages_decode_from_the_definition_in_the_bag() {
+    use skid_bag::msgs::livox::{decode_livox_custom, is_livox_custom};
+    for bag in ["none.bag", "bz2.bag", "lz4.bag", "unindexed.bag", "ros2_mcap"] {
+        let messages = read_topic(bag, "/livox/custom");
+        assert_eq!(messages.len(), CLOUDS, "{bag}");
+        for (index, message) in messages.iter().enumerate() {
+            let connection = &message.connection;
+            assert!(
+                is_livox_custom(&connection.message_type),
+                "{bag}: {}",
+                connection.message_type
+            );
+            let mut reader = WireReader::new(&message.data, connection.encoding).unwrap();
+            let cloud =
+                decode_livox_custom(&mut reader, &connection.message_type, &connection.definition).unwrap();
+            let expected = expected_rows("livox_custom", index);
+            assert_eq!(cloud.points.len(), expected.len(), "{bag} {index}");
+            for (point, row) in cloud.points.iter().zip(&expected) {
+                assert_eq!(
+                    [point.x, point.y, point.z, point.intensity],
+                    row[..4],
+                    "{bag} {index}"
+                );
+                assert!((point.time_offset_s - row[4]).abs() < 1e-6, "{bag} {index}");
+                assert_eq!(f32::from(point.ring), row[5]);
+            }
+            // Offsets start 5 ms before the header stamp (timebase) and may be negative.
+            assert!(cloud.points.iter().any(|p| p.time_offset_s < 0.0));
+        }
+    }
+}

@@ -1,15 +1,17 @@
 //! Assembling scans from a bag's interleaved messages: each point cloud waits (a few clouds at most)
 //! until the IMU and ground-truth topics have passed its stamp, then takes the IMU samples since the
-//! previous scan and the ground truth interpolated at its stamp.
+//! previous scan and the ground truth interpolated at its stamp. Clouds are `sensor_msgs/PointCloud2` or
+//! Livox's `CustomMsg` (decoded from the definition the bag stores).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 
 use nalgebra::{Quaternion, Translation3, UnitQuaternion};
+use skid_bag::msgs::livox::{decode_livox_custom, is_livox_custom};
 use skid_bag::msgs::motion::{self, StampedPose};
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2, PointField, raw_points};
 use skid_bag::{Bag, BagError, Connection, RawMessage, WireReader};
-use skid_core::{ImuSample, Pose, Scan};
+use skid_core::{ImuSample, Pose, RawPoint, Scan};
 
 /// The topics one robot reads.
 #[derive(Clone, Debug)]
@@ -152,6 +154,16 @@ impl ScanAssembler {
 
     fn decode_cloud(&mut self, message: &RawMessage) -> Result<Scan, skid_bag::DecodeError> {
         let mut reader = WireReader::new(&message.data, message.connection.encoding)?;
+        let connection = &message.connection;
+        if is_livox_custom(&connection.message_type) {
+            let cloud = decode_livox_custom(&mut reader, &connection.message_type, &connection.definition)?;
+            return Ok(self.scan_of(
+                connection,
+                cloud.header.stamp_nanos,
+                cloud.points,
+                cloud.dropped_non_finite,
+            ));
+        }
         let cloud = PointCloud2::decode(&mut reader)?;
         let layout = match &self.layout {
             Some((fields, layout)) if *fields == cloud.fields => layout.clone(),
@@ -161,22 +173,33 @@ impl ScanAssembler {
                 layout
             }
         };
-        let mut decoded = raw_points(&cloud, &layout);
+        let decoded = raw_points(&cloud, &layout);
+        Ok(self.scan_of(
+            connection,
+            cloud.header.stamp_nanos,
+            decoded.points,
+            decoded.dropped_non_finite,
+        ))
+    }
+
+    fn scan_of(
+        &self,
+        connection: &Connection,
+        stamp_nanos: u64,
+        mut points: Vec<RawPoint>,
+        dropped: usize,
+    ) -> Scan {
         if self.drop_zero {
-            decoded.points.retain(|p| p.x != 0.0 || p.y != 0.0 || p.z != 0.0);
+            points.retain(|p| p.x != 0.0 || p.y != 0.0 || p.z != 0.0);
         }
-        if decoded.dropped_non_finite > 0 {
-            tracing::debug!(
-                "{}: dropped {} non-finite points",
-                message.connection.topic,
-                decoded.dropped_non_finite
-            );
+        if dropped > 0 {
+            tracing::debug!("{}: dropped {dropped} non-finite points", connection.topic);
         }
-        Ok(Scan {
-            stamp_nanos: cloud.header.stamp_nanos,
-            points: decoded.points,
+        Scan {
+            stamp_nanos,
+            points,
             ..Scan::default()
-        })
+        }
     }
 
     /// Attaches the IMU samples since the previous scan and the interpolated ground truth.
@@ -215,7 +238,11 @@ impl ScanAssembler {
 /// Refuses a topic whose type is not what its role needs, naming the file, topic and type.
 fn check_type(bag: &Bag, topics: &Topics, connection: &Arc<Connection>) -> Result<(), BagError> {
     let expected: &[&str] = if connection.topic == topics.points {
-        &["sensor_msgs/PointCloud2"]
+        &[
+            "sensor_msgs/PointCloud2",
+            "livox_ros_driver/CustomMsg",
+            "livox_ros_driver2/CustomMsg",
+        ]
     } else if topics.imu.as_deref() == Some(connection.topic.as_str()) {
         &["sensor_msgs/Imu"]
     } else {

@@ -2,5 +2,7 @@
 //! `nav_msgs`, `geometry_msgs` and `tf2_msgs` (ROS 1 Noetic and ROS 2 Humble define them identically
 //! field by field; only the header and the serialization differ, see [`crate::wire`]).
 
+pub mod definition;
+pub mod livox;
 pub mod motion;
 pub mod point_cloud2;

@@ -16,7 +16,12 @@ pub fn fixtures() -> &'static Path {
     let (_, path) = FOLDER.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("bags");
-        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/make_bags.py");
+        // Found from whichever crate includes this module: the nearest ancestor holding the script.
+        let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .ancestors()
+            .map(|dir| dir.join("framework/bag/tests/fixtures/make_bags.py"))
+            .find(|script| script.is_file())
+            .expect("framework/bag/tests/fixtures/make_bags.py in an ancestor of the crate");
         let python = std::env::var("SKID_PYTHON").unwrap_or_else(|_| "python3".to_owned());
         let output = Command::new(&python)
             .arg(&script)
