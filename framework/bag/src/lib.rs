@@ -7,6 +7,8 @@
 //! Specifications followed: the ROS bag format 2.0 (wiki.ros.org/Bags/Format/2.0), the MCAP format
 //! (mcap.dev/spec), rosbag2's sqlite3 storage schema, ROS 1 message serialization
 //! (wiki.ros.org/msg, roscpp serialization) and OMG CDR (XCDR1) as ROS 2 middlewares use it.
+//!
+//! [`write`] records bags the other way: ROS 1 bags and ROS 2 MCAP bag folders, for `skid sim export`.
 
 mod bag;
 mod connection;
@@ -16,6 +18,7 @@ pub mod msgs;
 mod ros1;
 mod sqlite;
 mod wire;
+pub mod write;
 
 pub use bag::{Bag, Storage, bag_files, detect_storage};
 pub use connection::{Connection, MessageBytes, MessageReader, RawMessage, normalise_type};

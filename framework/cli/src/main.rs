@@ -187,10 +187,15 @@ struct SimFlags {
 
 #[derive(Subcommand, Debug)]
 enum SimCommand {
-    /// Write each robot as a KITTI-format folder (velodyne/*.bin, times.txt, poses.txt, calib.txt).
+    /// Write each robot as a KITTI-format folder (velodyne/*.bin, times.txt, poses.txt, calib.txt), a
+    /// ROS 1 bag (`robotN.bag`, LZ4 chunks) or a ROS 2 MCAP bag folder (`robotN/`), with /points, /imu
+    /// and /ground_truth.
     Export {
         #[command(flatten)]
         flags: SimFlags,
+        /// kitti, ros1 or mcap.
+        #[arg(long, default_value = "kitti")]
+        format: String,
         out: PathBuf,
     },
     /// Write a top-down PNG of the world with the routes.
@@ -288,8 +293,8 @@ fn main() -> ExitCode {
             out,
         } => commands::extra::pgo(&file, &robust, &init, out.as_deref()),
         Command::Sim {
-            command: SimCommand::Export { flags, out },
-        } => commands::extra::sim_export(&flags.args(), &out),
+            command: SimCommand::Export { flags, format, out },
+        } => commands::extra::sim_export(&flags.args(), &format, &out),
         Command::Sim {
             command: SimCommand::Preview { flags, out, size_px },
         } => commands::extra::sim_preview(&flags.args(), &out, size_px),

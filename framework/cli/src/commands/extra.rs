@@ -64,10 +64,19 @@ fn sim_config(args: &SimArgs<'_>) -> Result<SimConfig> {
 }
 
 /// `skid sim export`: every robot as a KITTI-format folder under `out`.
-pub fn sim_export(args: &SimArgs<'_>, out: &Path) -> Result<()> {
+pub fn sim_export(args: &SimArgs<'_>, format: &str, out: &Path) -> Result<()> {
     let config = sim_config(args)?;
+    let bag_format = match format {
+        "kitti" => None,
+        "ros1" => Some(skid_bag::write::BagFormat::Ros1),
+        "mcap" => Some(skid_bag::write::BagFormat::Mcap),
+        other => anyhow::bail!("unknown export format `{other}`; expected kitti, ros1 or mcap"),
+    };
     std::fs::create_dir_all(out).with_context(|| format!("cannot create output folder {}", out.display()))?;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if let Some(bag_format) = bag_format {
+        return super::sim_bag::export_fleet_bags(&config, bag_format, out, threads);
+    }
     let summaries = skid_sim::export_fleet_kitti(out, &config, threads)?;
     for (robot, summary) in summaries.iter().enumerate() {
         println!(

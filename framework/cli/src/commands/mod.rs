@@ -3,6 +3,7 @@
 pub mod bag;
 pub mod extra;
 pub mod robot;
+pub mod sim_bag;
 pub mod tools;
 
 use std::path::{Path, PathBuf};
