@@ -87,6 +87,27 @@ pub fn bag_files(path: &Path) -> Result<Vec<PathBuf>, BagError> {
     Ok(files)
 }
 
+/// The connection of `topic` in `reader` (named `label` in errors); when the reader knows every topic
+/// up front and `topic` is not among them, an error that lists those that are.
+pub fn require_topic(
+    reader: &dyn MessageReader,
+    label: &Path,
+    topic: &str,
+) -> Result<Option<Arc<Connection>>, BagError> {
+    let connections = reader.connections();
+    if let Some(connection) = connections.iter().find(|c| c.topic == topic) {
+        return Ok(Some(Arc::clone(connection)));
+    }
+    if reader.connections_complete() {
+        return Err(BagError::NoSuchTopic {
+            path: label.to_owned(),
+            topic: topic.to_owned(),
+            available: connections.iter().map(|c| c.topic.clone()).collect(),
+        });
+    }
+    Ok(None)
+}
+
 fn open_file(path: &Path) -> Result<Box<dyn MessageReader>, BagError> {
     Ok(match detect_storage(path)? {
         Storage::Ros1 => Box::new(ros1::Ros1Reader::open(path)?),
@@ -131,8 +152,16 @@ impl Bag {
         &self.files
     }
 
+    /// The connection of `topic`; when the bag lists its topics up front and `topic` is not among
+    /// them, an error that lists those that are.
+    pub fn require_topic(&self, topic: &str) -> Result<Option<Arc<Connection>>, BagError> {
+        require_topic(self, &self.path, topic)
+    }
+}
+
+impl MessageReader for Bag {
     /// The connections known so far, one per topic (the first file's index or summary up front).
-    pub fn connections(&self) -> Vec<Arc<Connection>> {
+    fn connections(&self) -> Vec<Arc<Connection>> {
         let mut all = self.seen.clone();
         for connection in self.current.connections() {
             if !all.iter().any(|known| known.topic == connection.topic) {
@@ -142,36 +171,19 @@ impl Bag {
         all
     }
 
-    /// Whether [`connections`](Self::connections) already lists every topic of the current file.
-    pub fn connections_complete(&self) -> bool {
+    /// Whether the connections already list every topic of the current file.
+    fn connections_complete(&self) -> bool {
         self.current.connections_complete()
     }
 
-    /// The connection of `topic`; when the bag lists its topics up front and `topic` is not among
-    /// them, an error that lists those that are.
-    pub fn require_topic(&self, topic: &str) -> Result<Option<Arc<Connection>>, BagError> {
-        let connections = self.connections();
-        if let Some(connection) = connections.iter().find(|c| c.topic == topic) {
-            return Ok(Some(Arc::clone(connection)));
-        }
-        if self.connections_complete() {
-            return Err(BagError::NoSuchTopic {
-                path: self.path.clone(),
-                topic: topic.to_owned(),
-                available: connections.iter().map(|c| c.topic.clone()).collect(),
-            });
-        }
-        Ok(None)
-    }
-
-    /// Restricts [`next_message`](Self::next_message) to these topics.
-    pub fn select_topics(&mut self, topics: &[String]) {
+    /// Restricts `next_message` to these topics.
+    fn select_topics(&mut self, topics: &[String]) {
         self.current.select_topics(topics);
         self.selected = Some(topics.to_vec());
     }
 
     /// The next message of a selected topic, in file order, or `None` at the end of the last file.
-    pub fn next_message(&mut self) -> Result<Option<RawMessage>, BagError> {
+    fn next_message(&mut self) -> Result<Option<RawMessage>, BagError> {
         loop {
             if let Some(message) = self.current.next_message()? {
                 return Ok(Some(message));

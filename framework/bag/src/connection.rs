@@ -31,6 +31,13 @@ impl Connection {
     }
 }
 
+impl Connection {
+    /// A topic received live (no stored definition).
+    pub fn live(topic: &str, message_type: &str, encoding: Encoding) -> Self {
+        Self::new(topic, message_type, String::new(), encoding)
+    }
+}
+
 /// `pkg/msg/Type` → `pkg/Type`; ROS 1 names are returned as they are.
 pub fn normalise_type(message_type: &str) -> String {
     let mut parts = message_type.split('/');

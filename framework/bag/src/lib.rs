@@ -20,7 +20,7 @@ mod sqlite;
 mod wire;
 pub mod write;
 
-pub use bag::{Bag, Storage, bag_files, detect_storage};
+pub use bag::{Bag, Storage, bag_files, detect_storage, require_topic};
 pub use connection::{Connection, MessageBytes, MessageReader, RawMessage, normalise_type};
 pub use error::{BagError, DecodeError};
 pub use mcap_file::McapReader;

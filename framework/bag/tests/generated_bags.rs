@@ -8,7 +8,7 @@ mod generated;
 use generated::{CLOUDS, COMPLETE_BAGS, IMU_PER_CLOUD, KINDS, expected_rows, fixtures};
 use skid_bag::msgs::motion::{decode_imu, decode_odometry, decode_pose_stamped, decode_tf_message};
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2, raw_points};
-use skid_bag::{Bag, RawMessage, WireReader};
+use skid_bag::{Bag, MessageReader, RawMessage, WireReader};
 
 fn read_topic(bag: &str, topic: &str) -> Vec<RawMessage> {
     let mut bag = Bag::open(&fixtures().join(bag)).unwrap();

@@ -10,7 +10,7 @@ use std::path::Path;
 use generated::fixtures;
 use skid_bag::msgs::motion::{decode_imu, decode_odometry, decode_pose_stamped, decode_tf_message};
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2, raw_points};
-use skid_bag::{Bag, BagError, WireReader};
+use skid_bag::{Bag, BagError, MessageReader, WireReader};
 
 /// Reads every message of a bag and decodes what SKiD decodes; the first error, if any.
 fn read_everything(path: &Path) -> Result<usize, BagError> {

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use skid_bag::msgs::motion::{decode_imu, decode_odometry};
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2, raw_points};
-use skid_bag::{Bag, Encoding, RawMessage, WireReader};
+use skid_bag::{Bag, Encoding, MessageReader, RawMessage, WireReader};
 use skid_io::{CloudReadOptions, data_path, kitti::read_kitti_bin};
 
 fn ros1_bag() -> PathBuf {

@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use serde::Serialize;
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2, raw_points};
-use skid_bag::{Bag, WireReader};
+use skid_bag::{Bag, MessageReader, WireReader};
 
 use crate::Timing;
 

@@ -10,6 +10,8 @@ pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     skid_source_files::register(registry)?;
     #[cfg(feature = "source-sim")]
     skid_source_sim::register(registry)?;
+    #[cfg(feature = "source-ros2")]
+    skid_source_ros2::register(registry)?;
     #[cfg(feature = "odometry-gt")]
     skid_odometry_gt::register(registry)?;
     #[cfg(feature = "odometry-kiss")]

@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use skid_bag::Bag;
+use skid_bag::{Bag, MessageReader};
 use skid_core::slots::Source;
 use skid_core::{PluginContext, PluginError, PluginResult, RobotId, Scan};
 
@@ -66,7 +66,8 @@ pub struct BagSource {
     sequence: u32,
 }
 
-fn bag_error(error: skid_bag::BagError) -> PluginError {
+/// A bag error as a plugin error (its text names the file, topic and message).
+pub fn bag_error(error: skid_bag::BagError) -> PluginError {
     PluginError::InvalidInput(error.to_string())
 }
 
@@ -96,7 +97,8 @@ impl BagSource {
             range.end = range.end.min(range.start.saturating_add(config.max_scans));
         }
         let bag = Bag::open(&path).map_err(bag_error)?;
-        let assembler = ScanAssembler::new(bag, topics, config.drop_zero_points).map_err(bag_error)?;
+        let assembler =
+            ScanAssembler::new(Box::new(bag), path, topics, config.drop_zero_points).map_err(bag_error)?;
         Ok(Self {
             robot: context.robot,
             assembler,

@@ -10,12 +10,14 @@ use nalgebra::{Quaternion, Translation3, UnitQuaternion};
 use skid_bag::msgs::livox::{decode_livox_custom, is_livox_custom};
 use skid_bag::msgs::motion::{self, StampedPose};
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2, PointField, raw_points};
-use skid_bag::{Bag, BagError, Connection, RawMessage, WireReader};
+use std::path::{Path, PathBuf};
+
+use skid_bag::{BagError, Connection, MessageReader, RawMessage, WireReader, require_topic};
 use skid_core::{ImuSample, Pose, RawPoint, Scan};
 
 /// The topics one robot reads.
 #[derive(Clone, Debug)]
-pub(crate) struct Topics {
+pub struct Topics {
     pub points: String,
     pub imu: Option<String>,
     pub ground_truth: Option<String>,
@@ -28,9 +30,11 @@ const MAX_PENDING_SCANS: usize = 8;
 /// Ground truth further than this from a scan stamp (outside the recorded poses) is not used.
 const GROUND_TRUTH_TOLERANCE_NANOS: u64 = 100_000_000;
 
-/// Turns a bag's messages into scans.
-pub(crate) struct ScanAssembler {
-    bag: Bag,
+/// Turns a message stream (a bag, or live topics) into scans.
+pub struct ScanAssembler {
+    messages: Box<dyn MessageReader>,
+    /// What errors name: the bag's path, or the live source's description.
+    label: PathBuf,
     topics: Topics,
     drop_zero: bool,
     pending: VecDeque<Scan>,
@@ -47,18 +51,24 @@ pub(crate) struct ScanAssembler {
 
 impl ScanAssembler {
     /// Checks the topics against the bag (when it lists its topics up front) and selects them.
-    pub fn new(mut bag: Bag, topics: Topics, drop_zero: bool) -> Result<Self, BagError> {
+    pub fn new(
+        mut messages: Box<dyn MessageReader>,
+        label: PathBuf,
+        topics: Topics,
+        drop_zero: bool,
+    ) -> Result<Self, BagError> {
         let mut selected = vec![topics.points.clone()];
         selected.extend(topics.imu.iter().cloned());
         selected.extend(topics.ground_truth.iter().cloned());
         for topic in &selected {
-            if let Some(connection) = bag.require_topic(topic)? {
-                check_type(&bag, &topics, &connection)?;
+            if let Some(connection) = require_topic(messages.as_ref(), &label, topic)? {
+                check_type(&label, &topics, &connection)?;
             }
         }
-        bag.select_topics(&selected);
+        messages.select_topics(&selected);
         Ok(Self {
-            bag,
+            messages,
+            label,
             topics,
             drop_zero,
             pending: VecDeque::new(),
@@ -86,7 +96,7 @@ impl ScanAssembler {
             } else if self.ended {
                 return Ok(None);
             }
-            match self.bag.next_message()? {
+            match self.messages.next_message()? {
                 None => self.ended = true,
                 Some(message) => self.take(message)?,
             }
@@ -104,7 +114,7 @@ impl ScanAssembler {
 
     fn message_error(&self, message: &RawMessage, index: u64, problem: impl ToString) -> BagError {
         BagError::Message {
-            path: self.bag.path().to_owned(),
+            path: self.label.clone(),
             topic: message.connection.topic.clone(),
             index,
             message: problem.to_string(),
@@ -114,7 +124,7 @@ impl ScanAssembler {
     fn take(&mut self, message: RawMessage) -> Result<(), BagError> {
         let topic = message.connection.topic.as_str();
         if topic == self.topics.points {
-            check_type(&self.bag, &self.topics, &message.connection)?;
+            check_type(&self.label, &self.topics, &message.connection)?;
             let index = self.cloud_index;
             self.cloud_index += 1;
             let scan = self
@@ -128,7 +138,7 @@ impl ScanAssembler {
         let mut reader = WireReader::new(&message.data, message.connection.encoding)
             .map_err(|problem| self.message_error(&message, index, problem))?;
         if self.topics.imu.as_deref() == Some(topic) {
-            check_type(&self.bag, &self.topics, &message.connection)?;
+            check_type(&self.label, &self.topics, &message.connection)?;
             let sample = motion::decode_imu(&mut reader)
                 .map_err(|problem| self.message_error(&message, index, problem))?;
             self.latest_imu_nanos = Some(self.latest_imu_nanos.unwrap_or(0).max(sample.stamp_nanos));
@@ -236,7 +246,7 @@ impl ScanAssembler {
 }
 
 /// Refuses a topic whose type is not what its role needs, naming the file, topic and type.
-fn check_type(bag: &Bag, topics: &Topics, connection: &Arc<Connection>) -> Result<(), BagError> {
+fn check_type(label: &Path, topics: &Topics, connection: &Arc<Connection>) -> Result<(), BagError> {
     let expected: &[&str] = if connection.topic == topics.points {
         &[
             "sensor_msgs/PointCloud2",
@@ -256,7 +266,7 @@ fn check_type(bag: &Bag, topics: &Topics, connection: &Arc<Connection>) -> Resul
         return Ok(());
     }
     Err(BagError::Message {
-        path: bag.path().to_owned(),
+        path: label.to_owned(),
         topic: connection.topic.clone(),
         index: 0,
         message: format!(

@@ -8,14 +8,14 @@
 //! are looked up under the data folder (`SKID_DATA_DIR`, default `../shared/data`).
 
 mod bag;
-mod bag_stream;
+pub mod bag_stream;
 mod cloud_dir;
 mod kitti;
 mod segment;
 
 pub use segment::SplitConfig;
 
-pub use bag::{BagConfig, BagSource};
+pub use bag::{BagConfig, BagSource, bag_error};
 pub use cloud_dir::{CloudDirConfig, CloudDirSource};
 pub use kitti::{KittiConfig, KittiSource};
 

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2};
-use skid_bag::{Bag, WireReader, detect_storage};
+use skid_bag::{Bag, MessageReader, WireReader, detect_storage};
 
 /// What `bag info` learns about one topic.
 #[derive(Default)]
