@@ -73,6 +73,26 @@ impl ResolvedConfig {
     }
 }
 
+/// The most worker threads a run may ask for (far above any core count it can use).
+const MAX_THREADS: usize = 256;
+
+/// A run's name becomes a folder under `run.output_dir`: one plain path component, so a run can never
+/// write outside that folder.
+fn check_run_name(name: &str) -> Result<(), String> {
+    if name.trim().is_empty() {
+        return Err("the run name is empty; it names the folder under run.output_dir".into());
+    }
+    if name == "." || name == ".." || name.contains(['/', '\\', '\0']) {
+        return Err(format!(
+            "{name:?} is not a plain folder name (no `/`, `\\`, `.` or `..`): the run must stay inside run.output_dir"
+        ));
+    }
+    if name.len() > 128 {
+        return Err(format!("{} characters; at most 128", name.len()));
+    }
+    Ok(())
+}
+
 /// Validates the merged configuration against the registry.
 pub(crate) fn resolve(
     figment: &Figment,
@@ -84,6 +104,19 @@ pub(crate) fn resolve(
             figment,
             "run.robots",
             format!("{} robots; expected 1 to {MAX_ROBOTS}", raw.run.robots),
+        ));
+    }
+    if let Err(reason) = check_run_name(&raw.run.name) {
+        return Err(invalid(figment, "run.name", reason));
+    }
+    if raw.run.threads > MAX_THREADS {
+        return Err(invalid(
+            figment,
+            "run.threads",
+            format!(
+                "{} threads; expected 0 (one per core) to {MAX_THREADS}",
+                raw.run.threads
+            ),
         ));
     }
     if let Err(reason) = raw.deploy.validate(raw.run.robots) {
@@ -304,4 +337,18 @@ pub(crate) fn from_figment(figment: &Figment, error: figment::Error) -> ConfigEr
         origin_of(figment, &key)
     };
     ConfigError::Invalid { origin, key, message }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check_run_name;
+
+    #[test]
+    fn run_names_stay_inside_the_output_folder() {
+        assert!(check_run_name("default").is_ok());
+        assert!(check_run_name("kitti-00_v2").is_ok());
+        for bad in ["", "  ", ".", "..", "../../x", "a/b", "a\\b", "nul\0"] {
+            assert!(check_run_name(bad).is_err(), "{bad:?}");
+        }
+    }
 }
