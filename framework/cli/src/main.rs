@@ -9,6 +9,7 @@
 
 mod commands;
 mod logging;
+mod signals;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -164,6 +165,9 @@ enum StageCommand {
         /// Outputs the host already has (after a restart): replayed without publishing.
         #[arg(long, default_value_t = 0)]
         skip: u64,
+        /// Exit when standard input closes (the host holds its other end).
+        #[arg(long)]
+        exit_with_host: bool,
     },
 }
 
@@ -255,9 +259,21 @@ impl SimFlags {
     }
 }
 
+/// The signal that stopped the command, when its error is an interrupted run.
+fn interrupted_by(error: &anyhow::Error) -> Option<i32> {
+    error.chain().find_map(|cause| match cause.downcast_ref() {
+        Some(skid_runtime::RuntimeError::Interrupted { signal }) => Some(*signal),
+        _ => None,
+    })
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     logging::init(cli.verbose, cli.quiet);
+    // A front-end stage dies with its signal (its host notices); every other command stops cleanly.
+    if !matches!(cli.command, Command::Stage { .. }) {
+        signals::install();
+    }
     let result = commands::registry(&cli.plugin_libs).and_then(|registry| match cli.command {
         Command::Run {
             profile,
@@ -309,14 +325,23 @@ fn main() -> ExitCode {
                     robot,
                     namespace,
                     skip,
+                    exit_with_host,
                 },
-        } => commands::extra::stage_front_end(&registry, &config_file, robot, &namespace, skip),
+        } => {
+            if exit_with_host {
+                skid_runtime::exit_when_host_exits();
+            }
+            commands::extra::stage_front_end(&registry, &config_file, robot, &namespace, skip)
+        }
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
-            ExitCode::FAILURE
+            match interrupted_by(&error) {
+                Some(signal) => ExitCode::from(signals::exit_status(signal)),
+                None => ExitCode::FAILURE,
+            }
         }
     }
 }

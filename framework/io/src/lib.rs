@@ -10,6 +10,7 @@
 //! | [`g2o`] | g2o 2D/3D pose graphs (`VERTEX_SE2`, `EDGE_SE2`, `VERTEX_SE3:QUAT`, `EDGE_SE3:QUAT`, `FIX`) |
 //! | [`toro`] | TORO 2D/3D pose graphs (`VERTEX2`, `EDGE2`, `VERTEX3`, `EDGE3`, `EQUIV`) |
 //! | [`mod@data_dir`] | where the shared test data lives (`SKID_DATA_DIR`) |
+//! | [`staged`] | output folders written whole (`<name>.incomplete/`, renamed when complete) |
 //!
 //! Every function returns `Result<_, IoError>`; a malformed file gives an error whose `Display` names the
 //! file and the line (text) or byte offset (binary), and a truncated file says how many bytes were
@@ -25,6 +26,7 @@ pub mod geometry;
 pub mod kitti;
 pub mod pcd;
 pub mod ply;
+pub mod staged;
 mod text;
 pub mod toro;
 pub mod trajectory;

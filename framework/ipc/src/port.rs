@@ -286,12 +286,18 @@ impl<S: Service, T: Topic> TopicSubscriber<S, T> {
             } else {
                 self.listener.timed_wait(record, left)
             };
-            waited.map_err(|e| io_error("wait", &self.service, e))?;
+            let interrupted = match waited {
+                Ok(_) => false,
+                // A signal woke the wait: hand control back (as after a timeout) so the caller can
+                // see whether it was asked to stop.
+                Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => true,
+                Err(error) => return Err(io_error("wait", &self.service, error)),
+            };
             self.events.set(events);
             if let Some(sample) = self.try_receive()? {
                 return Ok(Some(sample));
             }
-            if left.is_zero() || events.died > 0 {
+            if left.is_zero() || events.died > 0 || interrupted {
                 return Ok(None);
             }
         }

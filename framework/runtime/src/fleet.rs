@@ -75,7 +75,7 @@ pub(crate) fn plugin_context(config: &ResolvedConfig, robot: RobotId) -> PluginC
         fleet_size: config.run.robots,
         threads: threads.max(1),
         seed: config.run.seed,
-        output_dir: Some(config.run.output_dir.join(&config.run.name)),
+        output_dir: Some(crate::run_folder::run_folder(config).path().to_path_buf()),
     }
 }
 
@@ -140,9 +140,11 @@ impl Fleet {
     pub fn run_lockstep(&mut self, mut progress: impl FnMut(usize)) -> Result<RunSummary, RuntimeError> {
         let started = Instant::now();
         let max_scans = self.config.run.max_scans as usize;
+        crate::run_folder::begin(&self.config)?;
         self.start_feeds()?;
         let mut done = 0;
         while self.robots.iter().any(|robot| !robot.finished) {
+            crate::stop::check()?;
             for index in 0..self.robots.len() {
                 let robot = &mut self.robots[index];
                 if robot.finished {
@@ -153,7 +155,9 @@ impl Fleet {
                     continue;
                 }
                 let mut outbox = Vec::new();
-                robot.finished = !robot.step(&self.config, &mut outbox)?;
+                robot.finished = !robot
+                    .step(&self.config, &mut outbox)
+                    .map_err(crate::stop::or_interrupted)?;
                 done += usize::from(!robot.finished);
                 if let Some(now_nanos) = robot.scans.last().map(|s| s.stamp_nanos) {
                     outbox.extend(robot.due_cloud_requests(now_nanos, CLOUD_RETRY_NANOS));

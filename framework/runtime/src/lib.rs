@@ -20,8 +20,10 @@ mod metrics;
 mod outputs;
 mod peers;
 mod process;
+mod run_folder;
 mod settings;
 mod single;
+mod stop;
 mod summary;
 
 pub use artifacts::{MAP_VOXEL_M, frames_in_alpha, g2o_vertex_id, merged_map, pose_graph};
@@ -31,8 +33,10 @@ pub use graph::HostGraph;
 pub use host::{LoopStats, Plugins, RobotHost, ScanRecord};
 pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};
 pub use outputs::write_outputs;
-pub use process::{CRASH_AFTER_VAR, ProcessFeed, STAGE_EXE_VAR, run_front_end_stage};
+pub use process::{CRASH_AFTER_VAR, ProcessFeed, STAGE_EXE_VAR, exit_when_host_exits, run_front_end_stage};
+pub use run_folder::abandon_run;
 pub use single::{SingleRobot, SingleRobotError};
+pub use stop::{request_stop, stop_requested};
 pub use summary::{RobotSummary, RunSummary};
 
 /// What can stop a run.
@@ -47,6 +51,10 @@ pub enum RuntimeError {
         #[source]
         source: skid_core::PluginError,
     },
+    /// A stop was requested (by `signal`, as the binary reported it) before the run ended; the run's
+    /// folder stays `<name>.incomplete/`.
+    #[error("stopped by signal {signal} before the end")]
+    Interrupted { signal: i32 },
     /// An output could not be written.
     #[error("writing {}: {message}", path.display())]
     Output {

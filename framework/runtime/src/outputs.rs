@@ -1,4 +1,4 @@
-//! Writes a run's outputs under `<output_dir>/<name>/`: the effective configuration (`config.toml`),
+//! Writes a run's outputs under `<output_dir>/<name>/` (staged by [`crate::run_folder`]): the effective configuration (`config.toml`),
 //! per-robot trajectories (TUM and KITTI; the optimised estimate and the ground truth) and pose graphs
 //! (g2o), the merged map (`map.ply`), `metrics.json`, `summary.json` and the PNG plots.
 
@@ -55,10 +55,11 @@ fn write_trajectories(folder: &Path, robot: &RobotHost) -> Result<(), RuntimeErr
     Ok(())
 }
 
-/// Writes everything under `<output_dir>/<name>/` and returns that folder.
+/// Writes everything into the run's staging folder, then moves it to `<output_dir>/<name>/` (replacing
+/// an earlier run of that name whole) and returns that folder.
 pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, RuntimeError> {
-    let folder = fleet.config.run.output_dir.join(&fleet.config.run.name);
-    std::fs::create_dir_all(&folder).map_err(|e| output_error(&folder, e))?;
+    let staged = crate::run_folder::begin(&fleet.config)?;
+    let folder = staged.path().to_path_buf();
     let config_path = folder.join("config.toml");
     std::fs::write(&config_path, fleet.config.to_toml_string()).map_err(|e| output_error(&config_path, e))?;
     for robot in &fleet.robots {
@@ -78,5 +79,5 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, Run
         &RunMetrics::with_frames(&fleet.config.run.name, &fleet.robots, &fits),
     )?;
     write_json(&folder.join("summary.json"), summary)?;
-    Ok(folder)
+    crate::run_folder::commit(&staged)
 }

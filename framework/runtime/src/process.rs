@@ -32,6 +32,8 @@ pub const STAGE_EXE_VAR: &str = "SKID_STAGE_EXE";
 /// Environment variable for fault-injection tests: the front-end process of the robot given as
 /// `ROBOT:N` aborts right after publishing its `N`-th output, once (not after a restart).
 pub const CRASH_AFTER_VAR: &str = "SKID_FRONT_END_CRASH_AFTER";
+/// The folder inside the run's staging folder holding the configuration the front-end processes read.
+pub(crate) const STAGES_FOLDER: &str = "stages";
 /// Restarts of one front-end allowed before the run fails.
 const MAX_RESTARTS: u32 = 5;
 /// How long a front-end process may take to connect before it is declared dead.
@@ -56,12 +58,9 @@ fn namespace(base: &str, robot: RobotId) -> String {
 
 /// Starts a front-end process per robot and hands each host its feed.
 pub(crate) fn start_process_feeds(fleet: &mut Fleet) -> Result<(), RuntimeError> {
-    let folder = fleet
-        .config
-        .run
-        .output_dir
-        .join(&fleet.config.run.name)
-        .join("stages");
+    let folder = crate::run_folder::begin(&fleet.config)?
+        .path()
+        .join(STAGES_FOLDER);
     std::fs::create_dir_all(&folder).map_err(|e| output_error(&folder, e))?;
     let config_path = folder.join("config.toml");
     std::fs::write(&config_path, fleet.config.to_toml_string()).map_err(|e| output_error(&config_path, e))?;
@@ -107,7 +106,10 @@ impl StageCommand {
             .args(["--robot", &self.robot.0.to_string()])
             .args(["--namespace", &self.namespace])
             .args(["--skip", &skip.to_string()])
-            .stdin(Stdio::null());
+            .arg("--exit-with-host")
+            // The child watches this pipe: when the host dies, however it dies, the pipe closes and
+            // the child exits (see `exit_when_host_exits`).
+            .stdin(Stdio::piped());
         if !crash_allowed {
             command.env_remove(CRASH_AFTER_VAR);
         }
@@ -156,6 +158,9 @@ impl ProcessFeed {
     /// Restarts a front-end process that died, resuming after the outputs already taken.
     fn restart(&mut self, why: &str) -> Result<(), FrontEndError> {
         let robot = self.command.robot;
+        if let Some(signal) = crate::stop::stop_requested() {
+            return Err(failed(format!("stopped by signal {signal}")));
+        }
         if self.restarts >= MAX_RESTARTS {
             return Err(failed(format!(
                 "the front-end process of {robot} died {} times; last: {why}",
@@ -232,6 +237,9 @@ impl FrontEndFeed for ProcessFeed {
                 return decoded;
             }
             self.subscriber.take_publisher_events();
+            if let Some(signal) = crate::stop::stop_requested() {
+                return Err(failed(format!("stopped by signal {signal}")));
+            }
             match self.child.try_wait() {
                 Ok(Some(status)) => self.restart(&format!("exited with {status}"))?,
                 Ok(None) if !self.connected && self.started.elapsed() > CONNECT_TIMEOUT => {
@@ -436,6 +444,24 @@ pub fn run_front_end_stage(
         std::thread::sleep(Duration::from_millis(20));
     }
     Ok(())
+}
+
+/// For a front-end process: exits this process as soon as its standard input closes, which happens
+/// when the host that started it (and holds the pipe's other end) exits or is killed — so no
+/// front-end outlives its run.
+pub fn exit_when_host_exits() {
+    let spawned = std::thread::Builder::new().name("host-watch".into()).spawn(|| {
+        use std::io::Read;
+        let mut stdin = std::io::stdin();
+        let mut buffer = [0u8; 64];
+        // The host never writes; any read that ends (EOF or error) means it is gone.
+        while matches!(stdin.read(&mut buffer), Ok(n) if n > 0) {}
+        tracing::debug!("the host closed the pipe; the front-end process exits");
+        std::process::exit(0);
+    });
+    if let Err(error) = spawned {
+        tracing::warn!(%error, "could not watch the host; this front-end may outlive an interrupted run");
+    }
 }
 
 fn crash_after(robot: RobotId) -> Option<u64> {

@@ -92,8 +92,10 @@ impl SingleRobot {
         let mut first: Option<(Instant, u64)> = None;
         let mut linger_until = None;
         let mut next_heartbeat = started;
+        crate::run_folder::begin(&self.fleet.config)?;
         self.say(Message::Hello(self.status()));
         loop {
+            crate::stop::check()?;
             let deadline = match linger_until {
                 Some(until) => until,
                 None => {
@@ -120,6 +122,7 @@ impl SingleRobot {
                     next_heartbeat = Instant::now() + HEARTBEAT_PERIOD;
                 }
                 self.deliver()?;
+                crate::stop::check()?;
                 let now = Instant::now();
                 if now >= deadline {
                     break;

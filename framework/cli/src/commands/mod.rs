@@ -56,12 +56,33 @@ pub fn run(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> 
     let total_scans = config.run.max_scans * u64::from(config.run.robots);
     let mut fleet = skid_runtime::Fleet::build(config, registry)?;
     let bar = progress_bar(total_scans);
-    let summary = fleet.run_lockstep(|scans| bar.set_position(scans as u64))?;
+    let outcome = fleet.run_lockstep(|scans| bar.set_position(scans as u64));
     bar.finish_and_clear();
+    let summary = match outcome {
+        Ok(summary) => summary,
+        Err(error) => {
+            // Stop the front-end processes before marking the run's folder.
+            let config = fleet.config.clone();
+            drop(fleet);
+            return Err(abandoned(&config, error));
+        }
+    };
     let folder = skid_runtime::write_outputs(&fleet, &summary)?;
     tracing::info!(folder = %folder.display(), wall_s = summary.wall_s, "finished");
     println!("{}", serde_json::to_string(&summary)?);
     Ok(())
+}
+
+/// The error of a run that did not finish, pointing at the folder it leaves.
+pub(crate) fn abandoned(config: &ResolvedConfig, error: skid_runtime::RuntimeError) -> anyhow::Error {
+    let reason = error.to_string();
+    match skid_runtime::abandon_run(config, &reason) {
+        Some(folder) => anyhow::Error::new(error).context(format!(
+            "the run did not finish; its partial outputs are in {}",
+            folder.display()
+        )),
+        None => error.into(),
+    }
 }
 
 /// A progress bar over every robot's scans (a spinner when the sources' length is unknown), drawn on

@@ -19,13 +19,21 @@ pub fn run_robot(registry: &Registry, config: ResolvedConfig) -> Result<()> {
     );
     let mut robot = skid_runtime::SingleRobot::build(config, registry)?;
     let mut last_report = std::time::Instant::now();
-    let summary = robot.run(|scans| {
+    let outcome = robot.run(|scans| {
         // Several robots may share a terminal: a log line every few seconds rather than a bar.
         if last_report.elapsed().as_secs_f64() >= 2.0 {
             tracing::info!(scans, "running");
             last_report = std::time::Instant::now();
         }
-    })?;
+    });
+    let summary = match outcome {
+        Ok(summary) => summary,
+        Err(error) => {
+            let config = robot.fleet().config.clone();
+            drop(robot);
+            return Err(super::abandoned(&config, error));
+        }
+    };
     let folder = skid_runtime::write_outputs(robot.fleet(), &summary)?;
     tracing::info!(folder = %folder.display(), wall_s = summary.wall_s, "finished");
     println!("{}", serde_json::to_string(&summary)?);
