@@ -200,7 +200,11 @@ enum SimCommand {
         /// kitti, ros1 or mcap.
         #[arg(long, default_value = "kitti")]
         format: String,
+        /// Output folder; it must not exist or be empty unless `--overwrite`.
         out: PathBuf,
+        /// Replace a non-empty OUT (whole, once the export is complete).
+        #[arg(long)]
+        overwrite: bool,
     },
     /// Write a top-down PNG of the world with the routes.
     Preview {
@@ -309,8 +313,14 @@ fn main() -> ExitCode {
             out,
         } => commands::extra::pgo(&file, &robust, &init, out.as_deref()),
         Command::Sim {
-            command: SimCommand::Export { flags, format, out },
-        } => commands::extra::sim_export(&flags.args(), &format, &out),
+            command:
+                SimCommand::Export {
+                    flags,
+                    format,
+                    out,
+                    overwrite,
+                },
+        } => commands::extra::sim_export(&flags.args(), &format, &out, overwrite),
         Command::Sim {
             command: SimCommand::Preview { flags, out, size_px },
         } => commands::extra::sim_preview(&flags.args(), &out, size_px),

@@ -64,7 +64,7 @@ fn sim_config(args: &SimArgs<'_>) -> Result<SimConfig> {
 }
 
 /// `skid sim export`: every robot as a KITTI-format folder under `out`.
-pub fn sim_export(args: &SimArgs<'_>, format: &str, out: &Path) -> Result<()> {
+pub fn sim_export(args: &SimArgs<'_>, format: &str, out: &Path, overwrite: bool) -> Result<()> {
     let config = sim_config(args)?;
     let bag_format = match format {
         "kitti" => None,
@@ -72,18 +72,37 @@ pub fn sim_export(args: &SimArgs<'_>, format: &str, out: &Path) -> Result<()> {
         "mcap" => Some(skid_bag::write::BagFormat::Mcap),
         other => anyhow::bail!("unknown export format `{other}`; expected kitti, ros1 or mcap"),
     };
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create output folder {}", out.display()))?;
+    // Written whole into `<out>.incomplete/` and renamed at the end, so an export never mixes with
+    // what was in the folder before, and an interrupted one is plainly marked.
+    let staged = skid_io::staged::StagedFolder::new(out);
+    let existing = if overwrite {
+        skid_io::staged::Existing::Replace
+    } else {
+        skid_io::staged::Existing::Refuse
+    };
+    staged.begin(existing, "the simulator export")?;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     if let Some(bag_format) = bag_format {
-        return super::sim_bag::export_fleet_bags(&config, bag_format, out, threads);
+        super::sim_bag::export_fleet_bags(&config, bag_format, staged.path(), out, threads)?;
+    } else {
+        let summaries = skid_sim::export_fleet_kitti(staged.path(), &config, threads)?;
+        for (robot, summary) in summaries.iter().enumerate() {
+            let folder = summary
+                .dir
+                .strip_prefix(staged.path())
+                .map_or_else(|_| summary.dir.clone(), |relative| out.join(relative));
+            println!(
+                "{}",
+                serde_json::json!({
+                    "robot": robot,
+                    "folder": folder.display().to_string(),
+                    "scans": summary.scans,
+                    "points": summary.points,
+                })
+            );
+        }
     }
-    let summaries = skid_sim::export_fleet_kitti(out, &config, threads)?;
-    for (robot, summary) in summaries.iter().enumerate() {
-        println!(
-            "{}",
-            serde_json::json!({ "robot": robot, "summary": format!("{summary:?}") })
-        );
-    }
+    staged.commit()?;
     Ok(())
 }
 

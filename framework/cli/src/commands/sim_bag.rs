@@ -8,8 +8,15 @@ use anyhow::{Context, Result};
 use skid_bag::write::{BagFormat, RobotBagWriter};
 use skid_sim::{SimConfig, SimSource};
 
-/// Writes `robotN.bag` (ROS 1) or `robotN/` (ROS 2 MCAP) for every robot; one JSON line per robot.
-pub fn export_fleet_bags(config: &SimConfig, format: BagFormat, out: &Path, threads: usize) -> Result<()> {
+/// Writes `robotN.bag` (ROS 1) or `robotN/` (ROS 2 MCAP) for every robot into `out`; one JSON line per
+/// robot naming the bag as it will be under `final_out` (where `out` is renamed once complete).
+pub fn export_fleet_bags(
+    config: &SimConfig,
+    format: BagFormat,
+    out: &Path,
+    final_out: &Path,
+    threads: usize,
+) -> Result<()> {
     for robot in 0..config.robots {
         let path = match format {
             BagFormat::Ros1 => out.join(format!("robot{robot}.bag")),
@@ -34,9 +41,12 @@ pub fn export_fleet_bags(config: &SimConfig, format: BagFormat, out: &Path, thre
         let written = writer
             .finish()
             .with_context(|| format!("finishing {}", path.display()))?;
+        let shown = written
+            .strip_prefix(out)
+            .map_or_else(|_| written.clone(), |relative| final_out.join(relative));
         println!(
             "{}",
-            serde_json::json!({ "robot": robot, "bag": written.display().to_string(), "scans": scans, "points": points })
+            serde_json::json!({ "robot": robot, "bag": shown.display().to_string(), "scans": scans, "points": points })
         );
     }
     Ok(())

@@ -1,7 +1,8 @@
 //! Stopping a run: SIGINT or SIGTERM to `skid run --set deploy.mode=processes` stops its front-end
 //! processes, exits with 128 + the signal, and leaves only `<name>.incomplete/` (with its `INCOMPLETE`
 //! marker and the reason) beside an earlier complete run of the same name, which stays intact; a run that
-//! finishes replaces the earlier one whole (no stale `robot2/` from a larger fleet).
+//! finishes replaces the earlier one whole (no stale `robot2/` from a larger fleet). `skid sim export`
+//! refuses a non-empty folder unless `--overwrite`, and then replaces it whole.
 
 #![cfg(target_os = "linux")]
 #![allow(clippy::unwrap_used, clippy::expect_used)] // Test helpers fail loudly by design.
@@ -203,4 +204,57 @@ fn a_folder_that_is_not_a_run_is_never_replaced() {
         std::fs::read_to_string(folder.join("thesis.tex")).unwrap(),
         "mine"
     );
+}
+
+fn sim_export(out: &Path, frames: u32, overwrite: bool) -> std::process::Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_skid"));
+    command.args([
+        "-q", "sim", "export", "--robots", "1", "--sensor", "vlp16", "--frames",
+    ]);
+    command.arg(frames.to_string()).arg(out);
+    if overwrite {
+        command.arg("--overwrite");
+    }
+    command.output().unwrap()
+}
+
+#[test]
+fn sim_export_never_mixes_with_an_earlier_export() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("export");
+    let first = sim_export(&out, 3, false);
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&first.stdout);
+    assert!(
+        stdout.contains(&out.join("robot0").display().to_string()),
+        "{stdout}"
+    );
+    let scans = || std::fs::read_dir(out.join("robot0/velodyne")).unwrap().count();
+    assert_eq!(scans(), 3);
+    let refused = sim_export(&out, 2, false);
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        stderr.contains("--overwrite") && stderr.contains("export"),
+        "{stderr}"
+    );
+    assert_eq!(scans(), 3, "a refused export touched the folder");
+    let replaced = sim_export(&out, 2, true);
+    assert!(
+        replaced.status.success(),
+        "{}",
+        String::from_utf8_lossy(&replaced.stderr)
+    );
+    assert_eq!(scans(), 2, "old scans survived the overwrite");
+    let times = std::fs::read_to_string(out.join("robot0/times.txt")).unwrap();
+    assert_eq!(times.lines().count(), 2, "{times}");
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, vec![std::ffi::OsString::from("export")]);
 }
