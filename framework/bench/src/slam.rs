@@ -15,7 +15,7 @@ use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use skid_config::ConfigSources;
 use skid_core::Registry;
-use skid_runtime::{Fleet, RunMetrics};
+use skid_runtime::Fleet;
 
 /// One pipeline under comparison: a label and the `configs/profiles/` overlay (none = the default).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -123,9 +123,8 @@ pub fn run_one(
             }
         })
         .with_context(|| format!("running {name}"))?;
-    skid_runtime::write_outputs(&fleet, &summary)?;
     // The runtime's own metrics (also in the run's `metrics.json`): robot 0 is α, robot 1 is β.
-    let metrics = RunMetrics::of(&name, &fleet.robots);
+    let (_, metrics) = skid_runtime::write_outputs(&fleet, &summary)?;
     let (Some(alpha), Some(beta)) = (metrics.robots.first(), metrics.robots.get(1)) else {
         anyhow::bail!("{name}: the comparison needs two robots");
     };

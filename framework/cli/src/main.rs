@@ -30,14 +30,9 @@ struct Cli {
     #[arg(short, long, global = true, conflicts_with = "verbose")]
     quiet: bool,
     /// Load an out-of-tree plugin library (a cdylib built with `skid-abi`); repeatable. Also read from
-    /// `SKID_PLUGIN_LIBS` (paths separated by `:`).
-    #[arg(
-        long = "plugin-lib",
-        value_name = "PATH",
-        global = true,
-        env = "SKID_PLUGIN_LIBS",
-        value_delimiter = ':'
-    )]
+    /// `SKID_PLUGIN_LIBS` when no `--plugin-lib` is given (paths separated by `:`; empty entries are
+    /// ignored).
+    #[arg(long = "plugin-lib", value_name = "PATH", global = true)]
     plugin_libs: Vec<PathBuf>,
     #[command(subcommand)]
     command: Command,
@@ -72,6 +67,7 @@ enum Command {
         /// Descriptor plugin (solid, scan_context, iris, …).
         #[arg(long, default_value = "solid")]
         descriptor: String,
+        /// Point-cloud files (KITTI .bin, PCD or PLY).
         #[arg(required = true)]
         files: Vec<PathBuf>,
         #[command(flatten)]
@@ -79,7 +75,9 @@ enum Command {
     },
     /// Register SOURCE to TARGET (point-cloud files) and print target_from_source and stage timings.
     Register {
+        /// The fixed cloud (KITTI .bin, PCD or PLY).
         target: PathBuf,
+        /// The cloud to move onto the target.
         source: PathBuf,
         /// Coarse registration plugin, or `none` to start from the identity.
         #[arg(long, default_value = "none")]
@@ -92,23 +90,27 @@ enum Command {
     },
     /// Trajectory errors of EST against GT (TUM or KITTI files): ATE/ARE after alignment, RPE, drift.
     Eval {
+        /// Ground-truth trajectory (TUM or KITTI poses, detected from the content).
         #[arg(long)]
         gt: PathBuf,
+        /// Estimated trajectory (TUM or KITTI poses).
         #[arg(long)]
         est: PathBuf,
         /// Alignment before the absolute errors: se3 (evo -a), sim3 (evo -as) or none.
-        #[arg(long, default_value = "se3")]
+        #[arg(long, default_value = "se3", value_parser = ["se3", "sim3", "none"])]
         align: String,
     },
     /// Optimise a g2o pose graph (2D or 3D) and print iterations, time and costs (GTSAM convention).
     Pgo {
+        /// A g2o file (2D or 3D: VERTEX_SE2/EDGE_SE2 or VERTEX_SE3:QUAT/EDGE_SE3:QUAT).
         file: PathBuf,
-        /// none, huber, cauchy, tls or gnc (kernels apply to loop closures).
-        #[arg(long, default_value = "none")]
+        /// Robust kernel on loop closures (gnc: graduated non-convexity with truncated least squares).
+        #[arg(long, default_value = "none", value_parser = ["none", "huber", "cauchy", "tls", "gnc"])]
         robust: String,
-        /// Initial guess: file (the file's poses), odometry or chordal.
-        #[arg(long, default_value = "file")]
+        /// Initial guess: file (the file's poses) or chordal (the chordal relaxation).
+        #[arg(long, default_value = "file", value_parser = ["file", "chordal"])]
         init: String,
+        /// Write the optimised graph here as g2o.
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -125,6 +127,7 @@ enum Command {
     Odometry {
         /// A KITTI sequence folder (with `velodyne/`), a ROS 1 `.bag`, a ROS 2 bag folder or an `.mcap` file.
         folder: PathBuf,
+        /// Output folder for trajectory.tum and trajectory.kitti [default: runs/odometry].
         #[arg(long)]
         out: Option<PathBuf>,
         #[command(flatten)]
@@ -173,11 +176,11 @@ enum StageCommand {
 
 #[derive(Args, Debug)]
 struct SimFlags {
-    /// planetary, cave or urban.
-    #[arg(long, default_value = "planetary")]
+    /// The world to simulate.
+    #[arg(long, default_value = "planetary", value_parser = ["planetary", "cave", "urban"])]
     world: String,
-    /// vlp16, os1-32, os1-64, hdl64e or avia.
-    #[arg(long, default_value = "os1-64")]
+    /// The LiDAR model.
+    #[arg(long, default_value = "os1-64", value_parser = ["vlp16", "os1-32", "os1-64", "hdl64e", "avia"])]
     sensor: String,
     /// Robots (1 to 16).
     #[arg(long, default_value_t = 3)]
@@ -185,6 +188,7 @@ struct SimFlags {
     /// Scans per robot; 0 runs each route to its end.
     #[arg(long, default_value_t = 0)]
     frames: u32,
+    /// Seeds the world, the routes and every noise stream (the same seed gives the same scans).
     #[arg(long, default_value_t = 7)]
     seed: u64,
 }
@@ -197,8 +201,8 @@ enum SimCommand {
     Export {
         #[command(flatten)]
         flags: SimFlags,
-        /// kitti, ros1 or mcap.
-        #[arg(long, default_value = "kitti")]
+        /// kitti (velodyne/*.bin folders), ros1 (.bag) or mcap (ROS 2 bag folders).
+        #[arg(long, default_value = "kitti", value_parser = ["kitti", "ros1", "mcap"])]
         format: String,
         /// Output folder; it must not exist or be empty unless `--overwrite`.
         out: PathBuf,
@@ -210,7 +214,9 @@ enum SimCommand {
     Preview {
         #[command(flatten)]
         flags: SimFlags,
+        /// The PNG file to write.
         out: PathBuf,
+        /// Width and height of the image in pixels.
         #[arg(long, default_value_t = 1024)]
         size_px: u32,
     },
@@ -220,6 +226,7 @@ enum SimCommand {
 enum ConfigCommand {
     /// Print the merged, validated configuration as TOML.
     Show {
+        /// Profile overlay from configs/profiles/ (or the embedded copy).
         #[arg(long)]
         profile: Option<String>,
         #[command(flatten)]
@@ -228,7 +235,9 @@ enum ConfigCommand {
     /// Validate FILE (an overlay on the default configuration); exits non-zero with the file, key and
     /// expected values when something is wrong.
     Check {
+        /// The overlay file to check.
         file: PathBuf,
+        /// Profile overlay applied under FILE.
         #[arg(long)]
         profile: Option<String>,
         #[command(flatten)]
@@ -263,6 +272,33 @@ impl SimFlags {
     }
 }
 
+/// The error and its causes on one line, each said once (an error whose message already quotes its
+/// cause is not followed by it again), with control characters from file contents escaped so a
+/// corrupt header cannot write to the terminal.
+fn error_text(error: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in error.chain() {
+        let part = cause.to_string();
+        if part.is_empty() || text.contains(&part) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&part);
+    }
+    text.chars()
+        .flat_map(|c| {
+            let escaped: Vec<char> = if c.is_control() && c != '\n' {
+                c.escape_default().collect()
+            } else {
+                vec![c]
+            };
+            escaped
+        })
+        .collect()
+}
+
 /// The signal that stopped the command, when its error is an interrupted run.
 fn interrupted_by(error: &anyhow::Error) -> Option<i32> {
     error.chain().find_map(|cause| match cause.downcast_ref() {
@@ -278,7 +314,12 @@ fn main() -> ExitCode {
     if !matches!(cli.command, Command::Stage { .. }) {
         signals::install();
     }
-    let result = commands::registry(&cli.plugin_libs).and_then(|registry| match cli.command {
+    // `--plugin-lib` wins over the environment, as for every other option.
+    let mut plugin_libs = cli.plugin_libs.clone();
+    if let Some(listed) = std::env::var_os("SKID_PLUGIN_LIBS").filter(|_| plugin_libs.is_empty()) {
+        plugin_libs.extend(std::env::split_paths(&listed).filter(|path| !path.as_os_str().is_empty()));
+    }
+    let result = commands::registry(&plugin_libs).and_then(|registry| match cli.command {
         Command::Run {
             profile,
             profile_flag,
@@ -347,7 +388,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", error_text(&error));
             match interrupted_by(&error) {
                 Some(signal) => ExitCode::from(signals::exit_status(signal)),
                 None => ExitCode::FAILURE,

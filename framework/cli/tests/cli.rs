@@ -118,6 +118,15 @@ fn run_writes_trajectories_and_a_summary() {
     assert!(output.status.success(), "{}", text(&output.stderr));
     let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(summary["robots"].as_array().unwrap().len(), 2);
+    assert!(summary["robots"][0]["estimated_path_length_m"].as_f64().unwrap() > 1.0);
+    assert_eq!(summary["robots"][0]["scans_read"], 8);
+    assert_eq!(summary["robots"][0]["scans_skipped"], 0);
+    // `-q` keeps stderr to warnings: no human table.
+    assert!(
+        !text(&output.stderr).contains("outputs:"),
+        "{}",
+        text(&output.stderr)
+    );
     let folder = out.path().join("e2e");
     for robot in ["robot0", "robot1"] {
         let trajectory = skid_io_read_tum(&folder.join(robot).join("trajectory.tum"));
@@ -141,7 +150,42 @@ fn run_writes_trajectories_and_a_summary() {
     for robot in robots {
         let ate_m = robot["trajectory"]["ate_m"]["rmse"].as_f64().unwrap();
         assert!(ate_m.is_finite() && ate_m >= 0.0, "{robot}");
+        // The straight KITTI excerpt cannot fix the alignment's roll: metrics.json says so.
+        assert_eq!(
+            robot["trajectory"]["alignment_conditioning"]["ill_conditioned"], true,
+            "{robot}"
+        );
+        assert!(
+            robot["trajectory"]["rpe_rotation_deg"]["rmse"].as_f64().is_some(),
+            "{robot}"
+        );
+        assert!(
+            robot["trajectory"]["ground_truth_path_length_m"]
+                .as_f64()
+                .unwrap()
+                > 1.0
+        );
+        // Every candidate ends in exactly one outcome.
+        let loops = &robot["loops"];
+        let count = |key: &str| loops[key].as_u64().unwrap();
+        let candidates = count("candidates_intra") + count("candidates_inter");
+        let outcomes: u64 = [
+            "repeated_pair",
+            "cloud_missing",
+            "awaiting_cloud",
+            "coarse_invalid",
+            "fine_not_converged",
+            "accepted_intra",
+            "accepted_inter",
+            "rejected",
+            "undecided",
+        ]
+        .iter()
+        .map(|key| count(key))
+        .sum();
+        assert_eq!(candidates, outcomes, "{loops}");
     }
+    assert!(metrics["inter_robot_candidates"].as_u64().is_some(), "{metrics}");
     // Robot 1 is β: either its α/β alignment error or the reason it has none.
     assert!(robots[1]["alignment"].is_object() || robots[1]["alignment_unavailable"].is_string());
     let g2o = std::fs::read_to_string(folder.join("robot0/pose_graph.g2o")).unwrap();

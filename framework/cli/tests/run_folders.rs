@@ -21,7 +21,6 @@ fn skid_run(out: &Path, robots: u32, max_scans: u32, mode: &str) -> Command {
     command.args(["run"]);
     for set in [
         format!("run.robots={robots}"),
-        format!("source.sim.robots={robots}"),
         format!("run.max_scans={max_scans}"),
         "source.sim.sensor=vlp16".into(),
         "odometry.plugin=kiss_icp".into(),

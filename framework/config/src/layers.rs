@@ -13,6 +13,26 @@ use crate::{ConfigError, schema::RawConfig};
 /// The default profile, compiled into every binary so `skid` runs without a checkout.
 pub const DEFAULT_CONFIG_TOML: &str = include_str!("../../../configs/default.toml");
 
+/// The profiles, compiled in like the default so `skid run kitti` works outside a checkout. A test checks
+/// that this list and `configs/profiles/` agree.
+pub const EMBEDDED_PROFILES: &[(&str, &str)] = &[
+    (
+        "dcl_like",
+        include_str!("../../../configs/profiles/dcl_like.toml"),
+    ),
+    (
+        "disco_like",
+        include_str!("../../../configs/profiles/disco_like.toml"),
+    ),
+    ("iris", include_str!("../../../configs/profiles/iris.toml")),
+    ("kitti", include_str!("../../../configs/profiles/kitti.toml")),
+    ("ransac", include_str!("../../../configs/profiles/ransac.toml")),
+    (
+        "scan_context",
+        include_str!("../../../configs/profiles/scan_context.toml"),
+    ),
+];
+
 /// Environment variable naming the configuration folder (the one holding `default.toml`).
 pub const CONFIG_DIR_VAR: &str = "SKID_CONFIG_DIR";
 
@@ -51,7 +71,10 @@ impl ConfigSources {
             }),
         };
         if let Some(profile) = &self.profile {
-            figment = figment.merge(checked_toml(&self.profile_path(profile)?)?);
+            figment = match self.profile_path(profile)? {
+                Some(path) => figment.merge(checked_toml(&path)?),
+                None => figment.merge(embedded_profile(profile)?),
+            };
         }
         for overlay in &self.overlays {
             figment = figment.merge(checked_toml(overlay)?);
@@ -78,43 +101,74 @@ impl ConfigSources {
         resolve(&figment, raw, registry)
     }
 
-    /// Names of the profiles available in the configuration folder, sorted.
+    /// Names of the profiles available: the configuration folder's and the embedded ones, sorted.
     pub fn available_profiles(&self) -> Vec<String> {
-        let Some(dir) = &self.config_dir else {
-            return Vec::new();
-        };
-        let mut names: Vec<String> = std::fs::read_dir(dir.join("profiles"))
-            .into_iter()
-            .flatten()
-            .flatten()
-            .filter_map(|entry| {
-                let path = entry.path();
-                let is_toml = path.extension().is_some_and(|ext| ext == "toml");
-                is_toml
-                    .then(|| path.file_stem().map(|stem| stem.to_string_lossy().into_owned()))
-                    .flatten()
-            })
+        let mut names: Vec<String> = EMBEDDED_PROFILES
+            .iter()
+            .map(|(name, _)| (*name).to_owned())
             .collect();
+        if let Some(dir) = &self.config_dir {
+            names.extend(profile_names_in(&dir.join("profiles")));
+        }
         names.sort();
+        names.dedup();
         names
     }
 
-    fn profile_path(&self, profile: &str) -> Result<PathBuf, ConfigError> {
+    /// The profile's file in the configuration folder; `None` when only the embedded copy has it.
+    fn profile_path(&self, profile: &str) -> Result<Option<PathBuf>, ConfigError> {
         let dir = self
             .config_dir
             .clone()
             .unwrap_or_else(|| PathBuf::from("configs"));
         let path = dir.join("profiles").join(format!("{profile}.toml"));
-        if path.is_file() {
-            Ok(path)
-        } else {
-            Err(ConfigError::UnknownProfile {
-                name: profile.to_owned(),
-                path,
-                available: self.available_profiles(),
-            })
+        if self.config_dir.is_some() && path.is_file() {
+            return Ok(Some(path));
         }
+        if EMBEDDED_PROFILES.iter().any(|(name, _)| *name == profile) {
+            return Ok(None);
+        }
+        Err(ConfigError::UnknownProfile {
+            name: profile.to_owned(),
+            path,
+            available: self.available_profiles(),
+        })
     }
+}
+
+/// The `.toml` file stems of a folder.
+pub fn profile_names_in(folder: &Path) -> Vec<String> {
+    std::fs::read_dir(folder)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|entry| {
+            let path = entry.path();
+            let is_toml = path.extension().is_some_and(|ext| ext == "toml");
+            is_toml
+                .then(|| path.file_stem().map(|stem| stem.to_string_lossy().into_owned()))
+                .flatten()
+        })
+        .collect()
+}
+
+/// The compiled-in copy of a profile.
+fn embedded_profile(profile: &str) -> Result<Named<figment::providers::Data<Toml>>, ConfigError> {
+    let (_, text) = EMBEDDED_PROFILES
+        .iter()
+        .find(|(name, _)| *name == profile)
+        .ok_or_else(|| ConfigError::UnknownProfile {
+            name: profile.to_owned(),
+            path: PathBuf::from(format!("configs/profiles/{profile}.toml")),
+            available: EMBEDDED_PROFILES
+                .iter()
+                .map(|(name, _)| (*name).to_owned())
+                .collect(),
+        })?;
+    Ok(Named {
+        inner: Toml::string(text),
+        name: format!("embedded configs/profiles/{profile}.toml"),
+    })
 }
 
 /// The configuration folder: `$SKID_CONFIG_DIR`, else the nearest `configs/` holding `default.toml` in the

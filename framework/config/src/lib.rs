@@ -16,6 +16,6 @@ mod resolve;
 mod schema;
 
 pub use error::ConfigError;
-pub use layers::{ConfigSources, DEFAULT_CONFIG_TOML};
+pub use layers::{ConfigSources, DEFAULT_CONFIG_TOML, EMBEDDED_PROFILES, profile_names_in};
 pub use resolve::{ResolvedConfig, ResolvedSlot};
 pub use schema::{DeployMode, DeploySection, LoopsSection, NONE_PLUGIN, RunSection};

@@ -233,3 +233,144 @@ fn switching_plugins_does_not_inherit_the_old_plugin_keys() {
     assert!(config.slot(Slot::Odometry).is_none());
     assert!(config.slot(Slot::Odometry).params.table().is_empty());
 }
+
+#[test]
+fn an_out_of_range_value_in_a_file_names_the_file_and_the_key_once() {
+    let error = load_with_overlay("out_of_range.toml").unwrap_err();
+    let text = error.to_string();
+    assert_invalid(
+        error,
+        "out_of_range.toml",
+        "odometry.kiss_icp.voxel_size_m",
+        &["-1", "positive"],
+    );
+    // The reason is said once, without the plugin repeating it.
+    assert_eq!(text.matches("positive").count(), 1, "{text}");
+}
+
+/// Values of the right type that no plugin can use, from `--set`, each refused at load time with the key
+/// it was given under (the ranges every plugin's `check` enforces).
+#[test]
+fn out_of_range_values_are_refused_at_load_time_naming_the_key() {
+    let cases: &[(&str, &str)] = &[
+        (
+            "odometry.kiss_icp.voxel_size_m=0",
+            "odometry.kiss_icp.voxel_size_m",
+        ),
+        (
+            "odometry.kiss_icp.voxel_size_m=nan",
+            "odometry.kiss_icp.voxel_size_m",
+        ),
+        (
+            "odometry.kiss_icp.max_range_m=inf",
+            "odometry.kiss_icp.max_range_m",
+        ),
+        (
+            "odometry.kiss_icp.keyframe.distance_m=-2",
+            "odometry.kiss_icp.keyframe.distance_m",
+        ),
+        (
+            "odometry.ground_truth.translation_noise_m=-0.1",
+            "odometry.ground_truth.translation_noise_m",
+        ),
+        (
+            "descriptor.solid.num_range_bins=0",
+            "descriptor.solid.num_range_bins",
+        ),
+        (
+            "descriptor.scan_context.num_rings=0",
+            "descriptor.scan_context.num_rings",
+        ),
+        (
+            "coarse.kiss_matcher.voxel_size_m=-0.3",
+            "coarse.kiss_matcher.voxel_size_m",
+        ),
+        ("coarse.ransac.voxel_size_m=0", "coarse.ransac.voxel_size_m"),
+        (
+            "fine.gicp.max_correspondence_m=0",
+            "fine.gicp.max_correspondence_m",
+        ),
+        (
+            "verifier.pcm.fitness.min_overlap=1.5",
+            "verifier.pcm.fitness.min_overlap",
+        ),
+        (
+            "verifier.pcm.consistency.consistency_probability=2",
+            "verifier.pcm.consistency.consistency_probability",
+        ),
+        (
+            "backend.pgo.inlier_probability=2",
+            "backend.pgo.inlier_probability",
+        ),
+        ("transport.loopback.link.loss=1.5", "transport.loopback.link.loss"),
+        ("source.sim.world=mars", "source.sim.world"),
+        ("source.sim.speed_mps=-1", "source.sim.speed_mps"),
+    ];
+    for (set, key) in cases {
+        let error = ConfigSources {
+            sets: vec![(*set).to_owned()],
+            ..sources()
+        }
+        .load(&registry())
+        .expect_err(set);
+        assert_invalid(error, &format!("--set {set}"), key, &[]);
+    }
+}
+
+#[test]
+fn profiles_are_embedded_and_match_the_files() {
+    let folder = repo_configs().join("profiles");
+    let mut on_disk = skid_config::profile_names_in(&folder);
+    on_disk.sort();
+    let embedded: Vec<String> = skid_config::EMBEDDED_PROFILES
+        .iter()
+        .map(|(name, _)| (*name).to_owned())
+        .collect();
+    assert_eq!(on_disk, embedded, "add new profiles to EMBEDDED_PROFILES");
+    for (name, text) in skid_config::EMBEDDED_PROFILES {
+        let file = std::fs::read_to_string(folder.join(format!("{name}.toml"))).unwrap();
+        assert_eq!(&file, text, "{name}");
+        // Without a configuration folder (outside a checkout) the embedded copy is used.
+        let outside = ConfigSources {
+            profile: Some((*name).to_owned()),
+            ..ConfigSources::default()
+        }
+        .load(&registry())
+        .unwrap();
+        let inside = ConfigSources {
+            profile: Some((*name).to_owned()),
+            ..sources()
+        }
+        .load(&registry())
+        .unwrap();
+        assert_eq!(outside, inside, "{name}");
+    }
+    let error = ConfigSources {
+        profile: Some("nope".into()),
+        ..ConfigSources::default()
+    }
+    .load(&registry())
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("kitti") && error.contains("scan_context"),
+        "{error}"
+    );
+}
+
+#[test]
+fn the_fleet_size_has_one_key() {
+    // `run.robots` is the fleet size; the simulator has no key of its own to disagree with it.
+    let error = ConfigSources {
+        sets: vec!["source.sim.robots=2".to_owned()],
+        ..sources()
+    }
+    .load(&registry())
+    .unwrap_err();
+    assert_invalid(
+        error,
+        "--set source.sim.robots=2",
+        "source.sim.robots",
+        &["unknown field `robots`"],
+    );
+}

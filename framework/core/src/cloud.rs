@@ -145,6 +145,9 @@ pub struct Scan {
     pub imu: Vec<ImuSample>,
     /// Ground-truth pose of the sensor at `stamp_nanos`, in the robot's ground-truth world frame.
     pub ground_truth_world_from_sensor: Option<Pose>,
+    /// The LiDAR's pose in the IMU's frame (the extrinsic), when the source knows it (a bag's
+    /// `/tf_static`, the simulator's mounting); `None` when it is not known.
+    pub imu_from_sensor: Option<Pose>,
 }
 
 impl Scan {

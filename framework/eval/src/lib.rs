@@ -8,6 +8,7 @@
 //!   definitions (Grupp, "evo: Python package for the evaluation of odometry and SLAM", 2017), which
 //!   the paper used; [`associate_by_time`] / [`associate_by_index`] pair the poses first.
 //! - [`alpha_beta`]: the paper's multi-robot alignment metric `T_β,APE = (T^GT_β)⁻¹ T^GT_α T^α_β`.
+//! - [`alignment_conditioning`]: whether an SE(3) alignment's rotation is observable (not on a straight path).
 //! - [`drift`]: KITTI-style segment drift (%, deg/100 m) and end-point drift.
 //! - [`descriptor_memory`] and [`latency_vs_distance`]: the communication and memory figures.
 //! - [`evaluate_files`]: the `skid eval --gt GT --est EST` evaluation of two TUM/KITTI files.
@@ -17,6 +18,7 @@ pub mod alpha_beta;
 pub mod ape;
 pub mod associate;
 pub mod comms;
+pub mod conditioning;
 pub mod drift;
 mod error;
 pub mod geometry;
@@ -35,6 +37,7 @@ pub use associate::{Associated, DEFAULT_MAX_DIFF_S, TimeAssociation, associate_b
 pub use comms::{
     DescriptorMemory, LatencyBin, LatencySample, descriptor_memory, descriptor_memory_of, latency_vs_distance,
 };
+pub use conditioning::{AlignmentConditioning, MIN_EIGENVALUE_RATIO, alignment_conditioning};
 pub use drift::{DriftOptions, DriftResult, SegmentDrift, drift};
 pub use error::EvalError;
 pub use pr::{PrCurve, PrPoint, ScoredCandidate, pr_curve};

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::ape::{AlignmentSummary, align, ape_of_aligned};
 use crate::associate::{Associated, TimeAssociation, associate_by_index, associate_by_time};
+use crate::conditioning::{AlignmentConditioning, alignment_conditioning};
 use crate::drift::{DriftOptions, DriftResult, drift};
 use crate::error::EvalError;
 use crate::plot::{PlotOptions, PlotOutput, Series, line_plot, trajectory_plot};
@@ -65,6 +66,8 @@ pub struct EvalReport {
     pub ate_m: ErrorStats,
     /// ARE: angle of `R_gt⁻¹ R_est_aligned`, degrees.
     pub are_deg: ErrorStats,
+    /// Whether the alignment fixes its rotation; when it does not, the ARE is not meaningful.
+    pub alignment_conditioning: AlignmentConditioning,
     pub rpe: RpeResult,
     /// Drift; `None` with `drift_error` set when it cannot be computed (e.g. a standing ground truth).
     pub drift: Option<DriftResult>,
@@ -124,6 +127,7 @@ pub fn evaluate(gt: &Trajectory, est: &Trajectory, options: &EvalOptions) -> Res
         alignment: ape.alignment,
         ate_m: ape.translation_m,
         are_deg: ape.rotation_deg,
+        alignment_conditioning: alignment_conditioning(&pairs.gt),
         rpe,
         drift,
         drift_error,
@@ -238,6 +242,9 @@ impl EvalReport {
             &self.rpe.rotation_deg,
         );
         text.push('\n');
+        if let Some(warning) = self.alignment_conditioning.warning() {
+            let _ = writeln!(text, "Note: {warning}.");
+        }
         match (&self.drift, &self.drift_error) {
             (Some(d), _) => {
                 let _ = write!(

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::Pose;
 
 /// Thresholds of the keyframe policy; any one of them fires a keyframe.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct KeyframePolicy {
     /// Distance travelled since the last keyframe, in metres.
@@ -63,6 +63,16 @@ impl KeyframeTrigger {
         let index = self.count;
         self.count += 1;
         Some(index)
+    }
+}
+
+impl KeyframePolicy {
+    /// Refuses negative or non-finite thresholds (paths relative to the plugin table's `keyframe`).
+    pub fn check(&self) -> Result<(), skid_core::ParamError> {
+        use skid_core::registry::check::non_negative;
+        non_negative("keyframe.distance_m", self.distance_m)?;
+        non_negative("keyframe.angle_deg", self.angle_deg)?;
+        non_negative("keyframe.interval_s", self.interval_s)
     }
 }
 

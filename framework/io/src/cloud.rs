@@ -61,9 +61,25 @@ pub struct CloudReport {
     pub zero: usize,
     /// Zero points left out of the result ([`CloudReadOptions::drop_zero`]).
     pub dropped_zero: usize,
+    /// Binary data left after the points the header announces: a header that under-counts its points
+    /// (readers should warn; the file was cut short by its writer or its count is wrong).
+    pub unread_trailing_bytes: u64,
 }
 
 impl CloudReport {
+    /// A warning when the header under-counted the points (data left unread after them).
+    pub fn under_count_warning(&self, path: &Path) -> Option<String> {
+        (self.unread_trailing_bytes > 0).then(|| {
+            format!(
+                "{}: {} bytes of point data follow the {} points its header announces; the header \
+                 under-counts its points, which were not read",
+                path.display(),
+                self.unread_trailing_bytes,
+                self.points_in_file
+            )
+        })
+    }
+
     /// Number of points in the result.
     pub fn kept(&self) -> usize {
         self.points_in_file - self.dropped_non_finite - self.dropped_zero

@@ -43,18 +43,64 @@ pub struct ScanRecord {
     pub ground_truth: Option<Pose>,
 }
 
-/// Counts of what the loop machinery did.
+/// What became of this robot's loop candidates. Every candidate ends in exactly one outcome, so the
+/// candidates add up: `candidates_intra + candidates_inter` equals `repeated_pair + cloud_missing +
+/// awaiting_cloud + coarse_invalid + fine_not_converged + accepted_intra + accepted_inter + rejected +
+/// undecided` ([`LoopStats::outcomes`]). The accepted, rejected and undecided counts are the state at the
+/// time of reading (a loop PCM retracts counts as rejected); the last three fields count events.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct LoopStats {
     pub candidates_intra: usize,
     pub candidates_inter: usize,
+    /// The same keyframe pair had been registered before.
+    pub repeated_pair: usize,
+    /// A keyframe's cloud was not held (a peer keyframe whose cloud never came).
+    pub cloud_missing: usize,
+    /// Inter-robot candidates still waiting for the peer's cloud.
+    pub awaiting_cloud: usize,
+    /// The coarse registration found no valid alignment.
     pub coarse_invalid: usize,
+    /// The fine registration did not converge.
     pub fine_not_converged: usize,
+    /// In this robot's graph, found by this robot.
     pub accepted_intra: usize,
     pub accepted_inter: usize,
+    /// Refused by the verifier (truncated MSE or consistency), or accepted and later retracted.
     pub rejected: usize,
+    /// Submitted to the verifier, which has not decided yet (PCM waits for enough loops of a pair).
+    pub undecided: usize,
+    /// Events: coarse alignments judged invalid but refined anyway (`loops.refine_invalid_coarse`),
+    /// loops retracted, and accepted loops received from peers.
+    pub coarse_invalid_refined: usize,
     pub retracted: usize,
     pub received_from_peers: usize,
+}
+
+impl LoopStats {
+    /// The sum of the outcome counts, which equals the number of candidates.
+    pub fn outcomes(&self) -> usize {
+        self.repeated_pair
+            + self.cloud_missing
+            + self.awaiting_cloud
+            + self.coarse_invalid
+            + self.fine_not_converged
+            + self.accepted_intra
+            + self.accepted_inter
+            + self.rejected
+            + self.undecided
+    }
+
+    pub fn candidates(&self) -> usize {
+        self.candidates_intra + self.candidates_inter
+    }
+}
+
+/// Where one of this robot's own loops stands with the verifier.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoopStanding {
+    Accepted,
+    Rejected,
+    Undecided,
 }
 
 /// A peer candidate waiting for the peer's cloud.
@@ -93,11 +139,17 @@ pub struct RobotHost {
     /// Where each peer's odometry frame sits in this robot's frame, from the first loop with it.
     pub peer_frames: BTreeMap<RobotId, Pose>,
     pub scans: Vec<ScanRecord>,
+    /// Event counters; [`RobotHost::loop_stats`] completes them with the loops' current standing.
     pub stats: LoopStats,
+    /// Each loop this robot registered and submitted, with whether it is inter-robot.
+    pub loop_standing: BTreeMap<LoopId, (bool, LoopStanding)>,
     pub stage_ms: BTreeMap<&'static str, f64>,
     pub points_read: usize,
     /// Scans read from the source, including those the odometry skipped.
     pub scans_read: usize,
+    /// Scans the odometry refused (too few points, a stamp going backwards, …), counted and warned about
+    /// at a limited rate.
+    pub skipped_scans: crate::WarnLimiter,
     pub finished: bool,
     /// Set when the front-end runs on a thread or in another process.
     pub feed: Option<Box<dyn FrontEndFeed>>,
@@ -140,13 +192,30 @@ impl RobotHost {
             peer_frames: BTreeMap::new(),
             scans: Vec::new(),
             stats: LoopStats::default(),
+            loop_standing: BTreeMap::new(),
             stage_ms: BTreeMap::new(),
             points_read: 0,
             scans_read: 0,
+            skipped_scans: crate::WarnLimiter::default(),
             finished: false,
             feed: None,
             keyframes_since_optimize: 0,
         }
+    }
+
+    /// The loop counters with the accepted, rejected, undecided and awaiting counts as they stand now.
+    pub fn loop_stats(&self) -> LoopStats {
+        let mut stats = self.stats.clone();
+        for (inter, standing) in self.loop_standing.values() {
+            match (standing, inter) {
+                (LoopStanding::Accepted, true) => stats.accepted_inter += 1,
+                (LoopStanding::Accepted, false) => stats.accepted_intra += 1,
+                (LoopStanding::Rejected, _) => stats.rejected += 1,
+                (LoopStanding::Undecided, _) => stats.undecided += 1,
+            }
+        }
+        stats.awaiting_cloud = self.pending.len();
+        stats
     }
 
     pub(crate) fn plugin_error(
@@ -220,7 +289,15 @@ impl RobotHost {
             None => (Pose::identity(), None),
             Some(OdometryOutcome::Skipped { reason }) => {
                 // A scan the odometry cannot use is skipped with a warning; the run goes on.
-                tracing::warn!(robot = %self.robot, sequence = output.sequence, %reason, "scan skipped");
+                if let Some(count) = self.skipped_scans.occurrence() {
+                    tracing::warn!(
+                        robot = %self.robot,
+                        sequence = output.sequence,
+                        skipped_so_far = count,
+                        %reason,
+                        "scan skipped (repeats are logged at 10, 100, 1000, …; all are counted in summary.json)"
+                    );
+                }
                 return Ok(());
             }
             Some(OdometryOutcome::Registered {

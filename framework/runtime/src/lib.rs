@@ -25,6 +25,7 @@ mod settings;
 mod single;
 mod stop;
 mod summary;
+mod warn_limit;
 
 pub use artifacts::{MAP_VOXEL_M, frames_in_alpha, g2o_vertex_id, merged_map, pose_graph};
 pub use fleet::Fleet;
@@ -38,6 +39,7 @@ pub use run_folder::abandon_run;
 pub use single::{SingleRobot, SingleRobotError};
 pub use stop::{request_stop, stop_requested};
 pub use summary::{RobotSummary, RunSummary};
+pub use warn_limit::WarnLimiter;
 
 /// What can stop a run.
 #[derive(Debug, thiserror::Error)]

@@ -9,7 +9,7 @@ use skid_core::{KeyframeId, LoopId, PluginError, Pose, Slot};
 
 use crate::RuntimeError;
 use crate::graph::HostGraph;
-use crate::host::{PendingCandidate, RobotHost};
+use crate::host::{LoopStanding, PendingCandidate, RobotHost};
 use crate::settings::loop_information;
 
 impl RobotHost {
@@ -22,11 +22,13 @@ impl RobotHost {
     ) -> Result<(), RuntimeError> {
         let pair = (candidate.target, candidate.source);
         if self.loop_by_pair.contains_key(&pair) {
+            self.stats.repeated_pair += 1;
             return Ok(());
         }
         let (Some(target_cloud), Some(source_cloud)) =
             (self.cloud_of(candidate.target), self.cloud_of(candidate.source))
         else {
+            self.stats.cloud_missing += 1;
             return Ok(());
         };
         let prior = candidate.yaw_hint_rad.map(|yaw| {
@@ -44,11 +46,12 @@ impl RobotHost {
                     Ok(alignment) if alignment.valid => alignment.target_from_source,
                     Ok(alignment) if config.loops.refine_invalid_coarse && self.plugins.fine.is_some() => {
                         // The verifier judges the refined loop; a wrong one fails its fitness or PCM.
-                        self.stats.coarse_invalid += 1;
+                        self.stats.coarse_invalid_refined += 1;
                         alignment.target_from_source
                     }
                     Ok(_) | Err(PluginError::InvalidInput(_)) => {
                         self.stats.coarse_invalid += 1;
+                        tracing::debug!(robot = %self.robot, target = %candidate.target, source = %candidate.source, "loop candidate: coarse registration found no valid alignment");
                         return Ok(());
                     }
                     Err(error) => return Err(self.plugin_error(config, Slot::Coarse, error)),
@@ -71,6 +74,7 @@ impl RobotHost {
                     Some(Ok(fine)) if fine.converged => fine.target_from_source,
                     Some(Ok(_)) | Some(Err(PluginError::InvalidInput(_))) => {
                         self.stats.fine_not_converged += 1;
+                        tracing::debug!(robot = %self.robot, target = %candidate.target, source = %candidate.source, "loop candidate: fine registration did not converge");
                         return Ok(());
                     }
                     Some(Err(error)) => return Err(self.plugin_error(config, Slot::Fine, error)),
@@ -111,8 +115,17 @@ impl RobotHost {
                 ..Verdict::default()
             },
         };
+        self.loop_standing
+            .insert(id, (closure.is_inter_robot(), LoopStanding::Undecided));
         self.pending_closures.insert(id, closure);
         self.apply_verdict(config, verdict, outbox)
+    }
+
+    /// Records where one of this robot's own loops now stands.
+    fn set_standing(&mut self, id: LoopId, standing: LoopStanding) {
+        if let Some((_, current)) = self.loop_standing.get_mut(&id) {
+            *current = standing;
+        }
     }
 
     /// Applies a verdict: retracted loops leave the graph, accepted ones enter it, peers are told.
@@ -122,13 +135,25 @@ impl RobotHost {
         verdict: Verdict,
         outbox: &mut Vec<skid_protocol::Message>,
     ) -> Result<(), RuntimeError> {
-        self.stats.rejected += verdict.rejected.len();
+        if !(verdict.accepted.is_empty() && verdict.rejected.is_empty() && verdict.retracted.is_empty()) {
+            tracing::debug!(
+                robot = %self.robot,
+                accepted = ?verdict.accepted,
+                rejected = ?verdict.rejected,
+                retracted = ?verdict.retracted,
+                "verifier verdict"
+            );
+        }
+        for (id, _reason) in &verdict.rejected {
+            self.set_standing(*id, LoopStanding::Rejected);
+        }
         let mut changed = false;
         let mut accepted_messages = Vec::new();
         let mut retracted_messages = Vec::new();
         for id in verdict.retracted {
             if let Some(closure) = self.loops.remove(&id) {
                 self.stats.retracted += 1;
+                self.set_standing(id, LoopStanding::Rejected);
                 if let Some(backend) = self.plugins.backend.as_mut() {
                     backend.remove_loop(id).map_err(|e| RuntimeError::Plugin {
                         robot: self.robot,
@@ -152,11 +177,9 @@ impl RobotHost {
                 continue;
             }
             self.add_loop_to_backend(config, &closure)?;
+            self.set_standing(id, LoopStanding::Accepted);
             if closure.is_inter_robot() {
-                self.stats.accepted_inter += 1;
                 accepted_messages.push(closure.clone());
-            } else {
-                self.stats.accepted_intra += 1;
             }
             self.loops.insert(id, closure);
             changed = true;

@@ -1,6 +1,6 @@
 //! The run's `metrics.json`: each robot's ATE and ARE after SE(3) Umeyama alignment, the paper's α/β
-//! multi-robot alignment metric for every other robot against robot 0 (α), the inter-robot loops found,
-//! accepted and rejected, and the bytes each robot sent per message kind.
+//! multi-robot alignment metric for every other robot against robot 0 (α), what became of the loop
+//! candidates (accepted, rejected, undecided, failed registration; they add up), and the bytes each robot sent per message kind.
 //!
 //! The α/β metric (SKiD-SLAM paper, "Multi-Robot Alignment Error") needs `T^α_β`, the estimate of β's
 //! map frame in α's: robot α's distributed back-end holds the β keyframes its inter-robot loops touch,
@@ -12,7 +12,10 @@ use std::collections::BTreeMap;
 use nalgebra::Vector3;
 use serde::Serialize;
 use skid_core::{KeyframeId, Pose};
-use skid_eval::{AlignmentKind, AlphaBetaInput, ErrorStats, TransformError, alpha_beta, ape, umeyama};
+use skid_eval::{
+    AlignmentConditioning, AlignmentKind, AlphaBetaInput, ErrorStats, RpeOptions, TransformError,
+    alignment_conditioning, alpha_beta, ape, rpe, umeyama,
+};
 
 use crate::host::{LoopStats, RobotHost};
 
@@ -20,13 +23,18 @@ use crate::host::{LoopStats, RobotHost};
 #[derive(Clone, Debug, Serialize)]
 pub struct TrajectoryMetrics {
     pub poses: usize,
-    pub path_length_m: f64,
+    /// The length of the ground-truth path (`summary.json` gives the estimate's).
+    pub ground_truth_path_length_m: f64,
     /// ATE: position errors, metres.
     pub ate_m: ErrorStats,
-    /// ARE: rotation errors, degrees.
+    /// ARE: rotation errors, degrees; not meaningful when `alignment_conditioning.ill_conditioned`.
     pub are_deg: ErrorStats,
     /// ATE RMSE as a percentage of the ground-truth path length.
     pub ate_percent_of_path: f64,
+    /// Whether the SE(3) alignment fixes its rotation (not on a nearly straight path).
+    pub alignment_conditioning: AlignmentConditioning,
+    /// Rotation error between consecutive poses (RPE, Δ = 1 pose), which needs no alignment, degrees.
+    pub rpe_rotation_deg: Option<ErrorStats>,
 }
 
 /// The α/β metric for one robot β against α = robot 0.
@@ -65,9 +73,13 @@ pub struct RobotMetrics {
 pub struct RunMetrics {
     pub name: String,
     pub robots: Vec<RobotMetrics>,
-    pub inter_robot_loops_found: usize,
+    /// Inter-robot loop candidates from place recognition (each robot's `loops` says what became of them).
+    pub inter_robot_candidates: usize,
+    /// Inter-robot loops in the robots' graphs at the end.
     pub inter_robot_loops_accepted: usize,
+    /// Loops (intra- and inter-robot) the verifiers refused or retracted, and those still undecided.
     pub loops_rejected: usize,
+    pub loops_undecided: usize,
     pub bytes_sent_total: u64,
 }
 
@@ -90,12 +102,17 @@ fn path_length_m(poses: &[Pose]) -> f64 {
 fn trajectory_metrics(truth: &[Pose], estimate: &[Pose]) -> Result<TrajectoryMetrics, String> {
     let result = ape(truth, estimate, AlignmentKind::Se3).map_err(|e| e.to_string())?;
     let path_length_m = path_length_m(truth);
+    let rpe_rotation_deg = rpe(truth, estimate, &RpeOptions::default())
+        .ok()
+        .map(|rpe| rpe.rotation_deg);
     Ok(TrajectoryMetrics {
         poses: truth.len(),
-        path_length_m,
+        ground_truth_path_length_m: path_length_m,
         ate_percent_of_path: 100.0 * result.translation_m.rmse / path_length_m.max(f64::MIN_POSITIVE),
         ate_m: result.translation_m,
         are_deg: result.rotation_deg,
+        alignment_conditioning: alignment_conditioning(truth),
+        rpe_rotation_deg,
     })
 }
 
@@ -211,7 +228,7 @@ fn robot_metrics(
         trajectory,
         alignment,
         alignment_unavailable,
-        loops: host.stats.clone(),
+        loops: host.loop_stats(),
         bytes_sent_total: counters.sent_total.bytes,
         bytes_sent_by_kind,
     }
@@ -232,9 +249,10 @@ impl RunMetrics {
             .collect();
         Self {
             name: name.to_owned(),
-            inter_robot_loops_found: robots_metrics.iter().map(|r| r.loops.candidates_inter).sum(),
+            inter_robot_candidates: robots_metrics.iter().map(|r| r.loops.candidates_inter).sum(),
             inter_robot_loops_accepted: robots_metrics.iter().map(|r| r.loops.accepted_inter).sum(),
             loops_rejected: robots_metrics.iter().map(|r| r.loops.rejected).sum(),
+            loops_undecided: robots_metrics.iter().map(|r| r.loops.undecided).sum(),
             bytes_sent_total: robots_metrics.iter().map(|r| r.bytes_sent_total).sum(),
             robots: robots_metrics,
         }

@@ -56,8 +56,8 @@ fn write_trajectories(folder: &Path, robot: &RobotHost) -> Result<(), RuntimeErr
 }
 
 /// Writes everything into the run's staging folder, then moves it to `<output_dir>/<name>/` (replacing
-/// an earlier run of that name whole) and returns that folder.
-pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, RuntimeError> {
+/// an earlier run of that name whole) and returns that folder with the metrics it wrote.
+pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<(PathBuf, RunMetrics), RuntimeError> {
     let staged = crate::run_folder::begin(&fleet.config)?;
     let folder = staged.path().to_path_buf();
     let config_path = folder.join("config.toml");
@@ -74,10 +74,8 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, Run
         write_ply(&path, &map, PlyFormat::BinaryLittleEndian).map_err(|e| output_error(&path, e))?;
     }
     write_plots(&folder, &fleet.robots, &frames, &map)?;
-    write_json(
-        &folder.join("metrics.json"),
-        &RunMetrics::with_frames(&fleet.config.run.name, &fleet.robots, &fits),
-    )?;
+    let metrics = RunMetrics::with_frames(&fleet.config.run.name, &fleet.robots, &fits);
+    write_json(&folder.join("metrics.json"), &metrics)?;
     write_json(&folder.join("summary.json"), summary)?;
-    crate::run_folder::commit(&staged)
+    Ok((crate::run_folder::commit(&staged)?, metrics))
 }

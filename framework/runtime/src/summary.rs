@@ -13,13 +13,17 @@ use crate::host::{LoopStats, RobotHost};
 #[derive(Clone, Debug, Serialize)]
 pub struct RobotSummary {
     pub robot: u32,
+    /// Scans the odometry registered; `scans_read` counts those read, `scans_skipped` those it refused.
     pub scans: usize,
+    pub scans_read: usize,
+    pub scans_skipped: u64,
     pub keyframes: usize,
     pub mean_points_per_scan: f64,
     /// Total milliseconds spent per stage.
     pub stage_ms: BTreeMap<String, f64>,
     pub loops: LoopStats,
-    pub path_length_m: f64,
+    /// The length of the optimised trajectory (`metrics.json` gives the ground truth's).
+    pub estimated_path_length_m: f64,
     /// RMSE of position of the optimised trajectory after aligning the first poses, when ground truth
     /// exists (the evaluation crate adds Umeyama-aligned ATE/ARE and the α/β metric).
     pub ate_first_pose_aligned_m: Option<f64>,
@@ -59,6 +63,8 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
     RobotSummary {
         robot: host.robot.0,
         scans: host.scans.len(),
+        scans_read: host.scans_read,
+        scans_skipped: host.skipped_scans.count(),
         keyframes: host.keyframes.len(),
         mean_points_per_scan: if host.scans.is_empty() {
             0.0
@@ -66,8 +72,8 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
             host.points_read as f64 / host.scans.len() as f64
         },
         stage_ms: host.stage_ms.iter().map(|(k, v)| ((*k).to_owned(), *v)).collect(),
-        loops: host.stats.clone(),
-        path_length_m,
+        loops: host.loop_stats(),
+        estimated_path_length_m: path_length_m,
         ate_first_pose_aligned_m: ate_first_pose_aligned(&trajectory, &truth),
         messages: host.protocol.counters().snapshot(),
     }

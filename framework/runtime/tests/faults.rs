@@ -25,7 +25,13 @@ const SCANS: usize = 45;
 fn fleet(extra: &[&str]) -> Fleet {
     let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
     let registry = skid_builtin::registry().unwrap();
-    let output = std::env::temp_dir().join("skid-runtime-faults");
+    // Tests run in parallel: each fleet writes its run into a folder of its own.
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let output = std::env::temp_dir().join(format!(
+        "skid-runtime-faults-{}-{}",
+        std::process::id(),
+        NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
     let mut sets: Vec<String> = [
         "run.robots=3",
         "run.max_scans=45",

@@ -3,7 +3,8 @@
 //! (Furgale et al., IROS 2013; Trawny and Roumeliotis, "Indirect Kalman filter for 3D attitude
 //! estimation", 2005). Default densities are those of a mid-grade MEMS unit (ADIS16448 class).
 
-use nalgebra::Vector3;
+use nalgebra::{UnitQuaternion, Vector3};
+use skid_core::Pose;
 use serde::{Deserialize, Serialize};
 use skid_core::ImuSample;
 
@@ -12,7 +13,7 @@ use crate::rng::Rng;
 use crate::trajectory::Trajectory;
 
 /// IMU noise parameters (continuous-time densities).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ImuNoise {
     pub rate_hz: f64,
@@ -46,6 +47,10 @@ pub struct ImuSimulator {
     accel_bias: Vector3<f64>,
     gyro_bias: Vector3<f64>,
     next_index: u64,
+    /// Where the IMU is mounted: its pose in the sensor (LiDAR) frame.
+    sensor_from_imu: Pose,
+    /// The IMU's clock runs this far ahead of the LiDAR's, in seconds.
+    clock_offset_s: f64,
 }
 
 impl ImuSimulator {
@@ -69,7 +74,18 @@ impl ImuSimulator {
             accel_bias,
             gyro_bias,
             next_index: 0,
+            sensor_from_imu: Pose::identity(),
+            clock_offset_s: 0.0,
         }
+    }
+
+    /// Mounts the IMU at `sensor_from_imu` in the sensor frame (a lever arm and a rotation), with its
+    /// clock `clock_offset_s` ahead of the LiDAR's: samples then measure the IMU frame's motion and carry
+    /// the IMU's stamps.
+    pub fn mounted(mut self, sensor_from_imu: Pose, clock_offset_s: f64) -> Self {
+        self.sensor_from_imu = sensor_from_imu;
+        self.clock_offset_s = clock_offset_s;
+        self
     }
 
     fn period_nanos(&self) -> u64 {
@@ -83,11 +99,10 @@ impl ImuSimulator {
         let mut samples = Vec::new();
         while self.next_index * period <= until_nanos {
             let stamp_nanos = self.next_index * period;
-            let t = stamp_nanos as f64 * 1e-9;
-            let rotation = trajectory.pose_at(t).rotation;
-            let (_, acceleration) = trajectory.velocity_acceleration_at(t);
+            // The IMU's clock reads `clock_offset_s` ahead: this stamp was taken at LiDAR time t.
+            let t = stamp_nanos as f64 * 1e-9 - self.clock_offset_s;
+            let (rotation, acceleration, rate) = self.imu_motion(trajectory, t);
             let specific_force = rotation.inverse() * (acceleration + Vector3::new(0.0, 0.0, GRAVITY_MPS2));
-            let rate = trajectory.angular_velocity_at(t);
             let white = |rng: &mut Rng, density: f64| {
                 Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * density / dt.sqrt()
             };
@@ -104,5 +119,79 @@ impl ImuSimulator {
             self.next_index += 1;
         }
         samples
+    }
+
+    /// The IMU frame's attitude, world acceleration and body angular rate at `t_s`: the sensor's, moved
+    /// through the mounting (the lever arm adds `R̈_WS · t_SI`, taken by a central difference).
+    fn imu_motion(&self, trajectory: &Trajectory, t_s: f64) -> (UnitQuaternion<f64>, Vector3<f64>, Vector3<f64>) {
+        let sensor = trajectory.pose_at(t_s);
+        let (_, sensor_acceleration) = trajectory.velocity_acceleration_at(t_s);
+        let sensor_rate = trajectory.angular_velocity_at(t_s);
+        let mount = self.sensor_from_imu;
+        let rotation = sensor.rotation * mount.rotation;
+        let rate = mount.rotation.inverse() * sensor_rate;
+        let lever = mount.translation.vector;
+        if lever == Vector3::zeros() {
+            return (rotation, sensor_acceleration, rate);
+        }
+        let h = 1e-3;
+        let (before, after) = (trajectory.pose_at(t_s - h), trajectory.pose_at(t_s + h));
+        let lever_acceleration =
+            (after.rotation * lever + before.rotation * lever - 2.0 * (sensor.rotation * lever)) / (h * h);
+        (rotation, sensor_acceleration + lever_acceleration, rate)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Translation3;
+
+    /// A sensor spinning in place about the vertical at `rate` rad/s, as control poses every 10 ms.
+    fn spinning(rate: f64) -> Trajectory {
+        let controls = (0..400)
+            .map(|k| {
+                Pose::from_parts(
+                    Translation3::new(0.0, 0.0, 1.0),
+                    UnitQuaternion::from_euler_angles(0.0, 0.0, rate * 0.01 * f64::from(k)),
+                )
+            })
+            .collect();
+        Trajectory::new(0.0, 0.01, controls)
+    }
+
+    #[test]
+    fn a_lever_arm_feels_the_centripetal_acceleration_and_a_rotated_mount_turns_the_rates() {
+        let rate = 2.0;
+        // The IMU 1 m ahead of the spinning sensor: it circles at radius 1 m.
+        let mount = Pose::from_parts(Translation3::new(1.0, 0.0, 0.0), UnitQuaternion::identity());
+        let mut imu = ImuSimulator::new(None, 1).mounted(mount, 0.0);
+        let samples = imu.samples_until(&spinning(rate), 2_000_000_000);
+        let middle = samples[200];
+        let expected = [-rate * rate, 0.0, GRAVITY_MPS2];
+        for (got, want) in middle.accel_mps2.iter().zip(expected) {
+            assert!((got - want).abs() < 1e-3, "{:?}", middle.accel_mps2);
+        }
+        assert!((middle.gyro_radps[2] - rate).abs() < 1e-6);
+        // Mounted upside down (rolled 180°): the yaw rate and gravity change sign in its frame.
+        let flipped = Pose::from_parts(Translation3::identity(), UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0));
+        let mut imu = ImuSimulator::new(None, 1).mounted(flipped, 0.0);
+        let sample = imu.samples_until(&spinning(rate), 2_000_000_000)[200];
+        assert!((sample.gyro_radps[2] + rate).abs() < 1e-6, "{:?}", sample.gyro_radps);
+        assert!((sample.accel_mps2[2] + GRAVITY_MPS2).abs() < 1e-6, "{:?}", sample.accel_mps2);
+    }
+
+    #[test]
+    fn a_clock_offset_shifts_the_stamps_not_the_motion() {
+        let trajectory = spinning(1.0);
+        let mut exact = ImuSimulator::new(None, 1);
+        let mut ahead = ImuSimulator::new(None, 1).mounted(Pose::identity(), 0.05);
+        let a = exact.samples_until(&trajectory, 3_000_000_000);
+        let b = ahead.samples_until(&trajectory, 3_000_000_000);
+        // The sample stamped 50 ms later on the offset clock measured the same instant.
+        for (x, y) in a[100].accel_mps2.iter().zip(&b[110].accel_mps2) {
+            assert!((x - y).abs() < 1e-9, "{:?} {:?}", a[100].accel_mps2, b[110].accel_mps2);
+        }
+        assert_eq!(b[110].stamp_nanos, 550_000_000);
     }
 }

@@ -20,6 +20,7 @@ pub mod world;
 
 pub use error::SimError;
 pub use world::{Hit, Material, RoadGraph, World, WorldKind};
+pub mod gait;
 pub mod imu;
 pub mod motion;
 pub mod route;

@@ -5,12 +5,14 @@
 //! trapezoid-like profile), and the body follows the ground: height from a downward ray, roll and pitch
 //! from four contact points about the footprint, low-pass filtered like a suspension. Aerial robots
 //! hold an altitude above the ground (10 m outdoors, 2.2 m in caves), bank into turns (coordinated turn,
-//! bank = atan(v·ψ̇ / g)) and pitch with acceleration.
+//! bank = atan(v·ψ̇ / g)) and pitch with acceleration. Legged, handheld and fast-turning carriers add
+//! their body motion ([`crate::gait`]) on a finer control spacing.
 
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use skid_core::Pose;
 
+use crate::gait;
 use crate::route::Route;
 use crate::trajectory::Trajectory;
 use crate::world::{World, WorldKind};
@@ -20,13 +22,17 @@ pub const GRAVITY_MPS2: f64 = 9.80665;
 /// Spacing of the trajectory's control poses.
 pub const CONTROL_DT_S: f64 = 0.1;
 
-/// Ground vehicle or multirotor.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// The carrier: a ground vehicle, a multirotor, a trotting quadruped, a person carrying the sensor, or a
+/// ground base swinging its heading fast (see [`crate::gait`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Profile {
     #[default]
     Ground,
     Aerial,
+    Legged,
+    Handheld,
+    FastTurn,
 }
 
 /// Motion parameters.
@@ -120,8 +126,8 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
         8,
     );
     let (lateral_mps2, longitudinal_mps2) = match spec.profile {
-        Profile::Ground => (0.4, 0.3),
         Profile::Aerial => (1.5, 0.8),
+        _ => (0.4, 0.3),
     };
     let mut speed: Vec<f64> = curvature
         .iter()
@@ -140,13 +146,14 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
         times[i] = times[i - 1] + 2.0 * ds / (speed[i - 1] + speed[i]).max(0.02);
     }
     let end_s = times[n - 1] + spec.still_s;
-    let count = (end_s / CONTROL_DT_S).ceil() as usize + 1;
+    let control_dt = gait::control_dt_s(spec.profile, CONTROL_DT_S);
+    let count = (end_s / control_dt).ceil() as usize + 1;
 
     // Sample the path at every control time.
     let mut samples = Vec::with_capacity(count);
     let mut cursor = 0;
     for k in 0..count {
-        let t = k as f64 * CONTROL_DT_S;
+        let t = k as f64 * control_dt;
         while cursor + 1 < n - 1 && times[cursor + 1] <= t {
             cursor += 1;
         }
@@ -182,13 +189,13 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
         pitch.push((back - front).atan2(1.0));
         roll.push((left - right).atan2(0.8));
     }
+    // The suspension's low-pass spans the same time whatever the control spacing.
+    let span = ((2.0 * CONTROL_DT_S / control_dt).round() as usize).max(1);
     let (z, roll, pitch) = match spec.profile {
-        Profile::Ground => {
-            let z: Vec<f64> = smooth_scalar(&z, 2)
-                .iter()
-                .map(|g| g + spec.mount_height_m)
-                .collect();
-            (z, smooth_scalar(&roll, 2), smooth_scalar(&pitch, 2))
+        Profile::Ground | Profile::Legged | Profile::Handheld | Profile::FastTurn => {
+            let mount_m = gait::mount_height_m(spec.profile, spec.mount_height_m);
+            let z: Vec<f64> = smooth_scalar(&z, span).iter().map(|g| g + mount_m).collect();
+            (z, smooth_scalar(&roll, span), smooth_scalar(&pitch, span))
         }
         Profile::Aerial => {
             let altitude = if world.kind() == WorldKind::Cave {
@@ -200,25 +207,31 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
             let bank: Vec<f64> = (0..count)
                 .map(|k| {
                     let (a, b) = (samples[k.saturating_sub(1)], samples[(k + 1).min(count - 1)]);
-                    let yaw_rate = (b.1 - a.1) / (2.0 * CONTROL_DT_S);
+                    let yaw_rate = (b.1 - a.1) / (2.0 * control_dt);
                     (samples[k].2 * yaw_rate / GRAVITY_MPS2).atan()
                 })
                 .collect();
             let tilt: Vec<f64> = (0..count)
                 .map(|k| {
                     let (a, b) = (samples[k.saturating_sub(1)].2, samples[(k + 1).min(count - 1)].2);
-                    ((b - a) / (2.0 * CONTROL_DT_S) / GRAVITY_MPS2).atan()
+                    ((b - a) / (2.0 * control_dt) / GRAVITY_MPS2).atan()
                 })
                 .collect();
-            (z, smooth_scalar(&bank, 3), smooth_scalar(&tilt, 3))
+            (z, smooth_scalar(&bank, 3 * span / 2), smooth_scalar(&tilt, 3 * span / 2))
         }
     };
     let controls = (0..count)
         .map(|k| {
-            let (p, yaw, _) = samples[k];
-            let rotation = UnitQuaternion::from_euler_angles(roll[k], pitch[k], yaw);
-            Pose::from_parts(Translation3::from(Vector3::new(p[0], p[1], z[k])), rotation)
+            let (p, yaw, v) = samples[k];
+            let body = gait::body_offset(spec.profile, k as f64 * control_dt, v / spec.speed_mps.max(1e-9));
+            let (x, y) = (p[0] - yaw.sin() * body.left_m, p[1] + yaw.cos() * body.left_m);
+            let rotation = UnitQuaternion::from_euler_angles(
+                roll[k] + body.roll_rad,
+                pitch[k] + body.pitch_rad,
+                yaw + body.yaw_rad,
+            );
+            Pose::from_parts(Translation3::from(Vector3::new(x, y, z[k] + body.up_m)), rotation)
         })
         .collect();
-    Trajectory::new(0.0, CONTROL_DT_S, controls)
+    Trajectory::new(0.0, control_dt, controls)
 }

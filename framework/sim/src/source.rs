@@ -22,7 +22,7 @@ use crate::world::{World, WorldKind};
 pub const MAX_ROBOTS: u32 = 16;
 
 /// Parameters of the `sim` source (`[source.sim]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     /// `planetary`, `cave` or `urban`.
@@ -31,8 +31,9 @@ pub struct SimConfig {
     pub seed: u64,
     /// `vlp16`, `os1-32`, `os1-64`, `hdl64e` or `avia`.
     pub sensor: String,
-    /// Fleet size, 1 to 16, for the export tools; as a plugin the fleet size is the run's `run.robots`
-    /// and the robot index comes from the plugin context.
+    /// Fleet size, 1 to 16. Not a configuration key: in a run the fleet size is `run.robots` (one source
+    /// of truth), and the export tools set it from their `--robots` flag.
+    #[serde(skip)]
     pub robots: u32,
     /// Scans to produce; 0 = until the end of the route.
     pub frames: u32,
@@ -53,6 +54,11 @@ pub struct SimConfig {
     /// IMU noise; the IMU is ideal when `imu_noise` is false.
     pub imu_noise: bool,
     pub imu_model: ImuNoise,
+    /// Where the IMU sits on the sensor: its pose in the LiDAR frame as `[x, y, z, roll, pitch, yaw]`
+    /// (metres, degrees). Scans report the inverse as `imu_from_sensor`.
+    pub imu_mount: [f64; 6],
+    /// The IMU's clock runs this many seconds ahead of the LiDAR's (its stamps carry the offset).
+    pub imu_clock_offset_s: f64,
     /// Threads for ray casting; 0 = the plugin context's budget.
     pub threads: usize,
 }
@@ -74,6 +80,8 @@ impl Default for SimConfig {
             imu: true,
             imu_noise: true,
             imu_model: ImuNoise::default(),
+            imu_mount: [0.0; 6],
+            imu_clock_offset_s: 0.0,
             threads: 0,
         }
     }
@@ -128,7 +136,31 @@ impl SimConfig {
                 self.imu_model.rate_hz
             ),
         )?;
+        check(
+            self.imu_mount.iter().all(|v| v.is_finite())
+                && self.imu_mount[..3].iter().all(|v| v.abs() <= 2.0),
+            format!(
+                "imu_mount = {:?} must be finite, with a lever arm of at most 2 m per axis",
+                self.imu_mount
+            ),
+        )?;
+        check(
+            self.imu_clock_offset_s.abs() <= 1.0,
+            format!(
+                "imu_clock_offset_s = {} must be within ±1 s",
+                self.imu_clock_offset_s
+            ),
+        )?;
         Ok((kind, sensor))
+    }
+
+    /// The IMU's pose in the sensor frame.
+    pub fn sensor_from_imu(&self) -> skid_core::Pose {
+        let [x, y, z, roll, pitch, yaw] = self.imu_mount;
+        skid_core::Pose::from_parts(
+            nalgebra::Translation3::new(x, y, z),
+            nalgebra::UnitQuaternion::from_euler_angles(roll.to_radians(), pitch.to_radians(), yaw.to_radians()),
+        )
     }
 
     /// The scan degradations.
@@ -159,6 +191,7 @@ pub struct SimSource {
     robot: RobotId,
     noise: ScanNoise,
     imu: Option<ImuSimulator>,
+    imu_from_sensor: skid_core::Pose,
     key: u64,
     next_sequence: u32,
     scan_count: u32,
@@ -198,9 +231,10 @@ impl SimSource {
             config.frames.min(available)
         };
         let key = combine(combine(config.seed, 0x5ca1), u64::from(robot));
-        let imu = config
-            .imu
-            .then(|| ImuSimulator::new(config.imu_noise.then_some(config.imu_model), combine(key, 1)));
+        let imu = config.imu.then(|| {
+            ImuSimulator::new(config.imu_noise.then_some(config.imu_model), combine(key, 1))
+                .mounted(config.sensor_from_imu(), config.imu_clock_offset_s)
+        });
         let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -219,6 +253,7 @@ impl SimSource {
             robot: RobotId(robot),
             noise: config.scan_noise(),
             imu,
+            imu_from_sensor: config.sensor_from_imu().inverse(),
             key,
             next_sequence: 0,
             scan_count,
@@ -290,6 +325,7 @@ impl SimSource {
             points,
             imu: Vec::new(),
             ground_truth_world_from_sensor: Some(self.trajectory.pose_at(sweep_start_s)),
+            imu_from_sensor: Some(self.imu_from_sensor),
         }
     }
 
@@ -351,4 +387,12 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
             Ok(Box::new(SimSource::new(&config, context.robot.0, threads)?) as Box<dyn Source>)
         },
     )?)
+}
+
+impl skid_core::PluginParams for SimConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate()
+            .map(drop)
+            .map_err(|error| skid_core::ParamError::named_in(error.to_string()))
+    }
 }

@@ -25,7 +25,7 @@ use crate::problem::check_information;
 use crate::robust::{Kernel, RobustLoss, chi2_quantile};
 
 /// Parameters of the `pgo` back-end (`[backend.pgo]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PgoConfig {
     /// Robust loss on loop closures: none, huber, cauchy, tls or gnc (GNC-TLS).
@@ -307,5 +307,19 @@ impl GraphView for PgoBackend {
 
     fn loops(&self) -> Vec<LoopClosure> {
         self.loops.values().cloned().collect()
+    }
+}
+
+impl skid_core::PluginParams for PgoConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        use skid_core::registry::check::{non_negative, positive};
+        non_negative("robust_width", self.robust_width)?;
+        if !(self.inlier_probability > 0.0 && self.inlier_probability < 1.0) {
+            return Err(skid_core::ParamError::at(
+                "inlier_probability",
+                format!("{} must lie strictly between 0 and 1", self.inlier_probability),
+            ));
+        }
+        positive("relative_tolerance", self.relative_tolerance)
     }
 }

@@ -23,7 +23,7 @@ use crate::problem::{Problem, RawEdge, Unanchored};
 use crate::robust::{Kernel, RobustLoss, chi2_quantile};
 
 /// How the loop closures are made robust.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RobustMode {
     /// Plain least squares.
@@ -74,7 +74,7 @@ impl RobustMode {
 }
 
 /// The initial guess.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Initialization {
     /// The given poses: the file's vertices (or the odometry chain the reader composed for missing

@@ -35,7 +35,7 @@ pub use pipeline::{KissMatcherReport, StageTimings};
 pub const PLUGIN_NAME: &str = "kiss_matcher";
 
 /// Which dense subgraph of the consistency graph is kept as inliers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum PruningMode {
     /// The maximum k-core (the default: fast, and no worse in the authors' experiments).
@@ -45,7 +45,7 @@ pub enum PruningMode {
 }
 
 /// Parameters of `kiss_matcher`; `Default` holds the reference values.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct KissMatcherConfig {
     /// Voxel size v of the sampling, in metres; the radii and noise bounds scale with it.
@@ -266,6 +266,12 @@ impl CoarseRegistration for KissMatcher {
     ) -> PluginResult<CoarseAlignment> {
         self.align_with_report(target, source)
             .map(|report| report.alignment)
+    }
+}
+
+impl skid_core::PluginParams for KissMatcherConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::named_in)
     }
 }
 

@@ -27,7 +27,7 @@ use crate::ransac::{RansacParams, ransac};
 pub const PLUGIN_NAME: &str = "ransac";
 
 /// Parameters of `ransac`; `Default` holds the reference values.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct RansacConfig {
     /// Voxel size v of the sampling, in metres.
@@ -299,6 +299,12 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
         )
     });
     finish(report, reason)
+}
+
+impl skid_core::PluginParams for RansacConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::named_in)
+    }
 }
 
 #[cfg(test)]

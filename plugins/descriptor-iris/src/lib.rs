@@ -17,6 +17,12 @@ pub mod image;
 pub mod index;
 mod keytree;
 
+impl skid_core::PluginParams for IrisConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::from_plugin_error)
+    }
+}
+
 #[cfg(test)]
 mod tests;
 
@@ -33,7 +39,7 @@ pub use keytree::{MAX_KEY_LEN, RebuildPolicy};
 pub const NAME: &str = "iris";
 
 /// Parameters of the `iris` descriptor; defaults are the reference values.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct IrisConfig {
     /// Image rows: rings of `ring_width_m` from the sensor outwards.

@@ -11,6 +11,12 @@ pub mod extract;
 pub mod index;
 mod keytree;
 
+impl skid_core::PluginParams for ScanContextConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::from_plugin_error)
+    }
+}
+
 #[cfg(test)]
 mod tests;
 
@@ -26,7 +32,7 @@ pub use keytree::{MAX_KEY_LEN, RebuildPolicy};
 pub const NAME: &str = "scan_context";
 
 /// Parameters of the `scan_context` descriptor; defaults are the reference values.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ScanContextConfig {
     /// Rings over [0, max_range_m].

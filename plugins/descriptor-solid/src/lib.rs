@@ -19,6 +19,12 @@ mod keytree;
 mod voxel;
 pub mod wire;
 
+impl skid_core::PluginParams for SolidConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::from_plugin_error)
+    }
+}
+
 #[cfg(test)]
 mod tests;
 
@@ -37,7 +43,7 @@ use extract::Binning;
 pub const NAME: &str = "solid";
 
 /// Parameters of the `solid` descriptor. Defaults are the reference values for an HDL-64E.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct SolidConfig {
     /// Range bins over [0, max_range_m].

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::{PluginError, PluginResult};
 
 /// How SOLiD values are encoded for sending.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum Quantization {
     /// Plain f32 values.

@@ -7,7 +7,7 @@ use skid_core::{PluginError, PluginResult};
 use crate::PLUGIN_NAME;
 
 /// Which cost the plugin minimises.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Variant {
     /// Generalized ICP: plane-to-plane Mahalanobis distance between per-point covariances.
@@ -48,7 +48,7 @@ impl std::fmt::Display for Variant {
 }
 
 /// Parameters of the `gicp` plugin. Every value of the reference implementation is exposed.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct GicpConfig {
     /// The cost: `gicp` (default), `vgicp`, `icp` or `plane_icp`.
@@ -269,6 +269,12 @@ impl std::fmt::Display for PreparationKey {
             write!(f, ", voxel map {} m", f64::from_bits(self.voxel_resolution_m))?;
         }
         Ok(())
+    }
+}
+
+impl skid_core::PluginParams for GicpConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::from_plugin_error)
     }
 }
 

@@ -18,7 +18,7 @@ use skid_core::{
 use skid_geometry::{KeyframePolicy, KeyframeTrigger, deskew_constant_velocity, voxel_downsample};
 
 /// Parameters of the `ground_truth` odometry.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct GroundTruthConfig {
     /// Standard deviation of the noise added to each inter-scan translation, per axis, in metres.
@@ -183,6 +183,19 @@ impl Odometry for GroundTruthOdometry {
             previous_from_current,
             keyframe,
         })
+    }
+}
+
+impl skid_core::PluginParams for GroundTruthConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        use skid_core::registry::check::{non_negative, positive, within};
+        non_negative("translation_noise_m", self.translation_noise_m)?;
+        non_negative("rotation_noise_deg", self.rotation_noise_deg)?;
+        within("scale_drift_percent", self.scale_drift_percent, -50.0, 50.0)?;
+        within("yaw_drift_deg_per_m", self.yaw_drift_deg_per_m, -10.0, 10.0)?;
+        positive("scan_period_s", self.scan_period_s)?;
+        non_negative("keyframe_voxel_m", self.keyframe_voxel_m)?;
+        self.keyframe.check()
     }
 }
 

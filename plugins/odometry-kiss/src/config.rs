@@ -6,7 +6,7 @@ use skid_core::PluginError;
 use skid_geometry::KeyframePolicy;
 
 /// Parameters of the `kiss_icp` odometry (`[odometry.kiss_icp]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct KissIcpConfig {
     /// Points farther than this from the sensor are dropped, and map voxels farther than this from the
@@ -100,6 +100,13 @@ impl KissIcpConfig {
             return bad("max_iterations must be at least 1".to_owned());
         }
         Ok(())
+    }
+}
+
+impl skid_core::PluginParams for KissIcpConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::from_plugin_error)?;
+        self.keyframe.check()
     }
 }
 

@@ -20,7 +20,7 @@ use crate::resolve_path;
 use crate::segment::{SplitConfig, segment};
 
 /// Parameters of the `bag` source.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct BagConfig {
     /// A `.bag` file, a ROS 2 bag folder, or a `.mcap`/`.db3` file; `{robot}` is replaced by the robot index.
@@ -33,6 +33,9 @@ pub struct BagConfig {
     pub ground_truth_topic: String,
     /// On a `/tf` ground-truth topic, the child frame whose pose is the ground truth.
     pub ground_truth_frame: String,
+    /// Static transforms (`tf2_msgs/TFMessage`) giving the LiDAR→IMU extrinsic, read when the bag has
+    /// the topic; empty for none.
+    pub tf_static_topic: String,
     /// Stop after this many scans; 0 reads to the end.
     pub max_scans: usize,
     /// Drop `(0, 0, 0)` "no return" points.
@@ -49,6 +52,7 @@ impl Default for BagConfig {
             imu_topic: "/imu/data".to_owned(),
             ground_truth_topic: "/ground_truth".to_owned(),
             ground_truth_frame: String::new(),
+            tf_static_topic: "/tf_static".to_owned(),
             max_scans: 0,
             drop_zero_points: true,
             split: SplitConfig::default(),
@@ -76,12 +80,13 @@ impl BagSource {
     pub fn open(config: BagConfig, context: &PluginContext) -> PluginResult<Self> {
         let robot_text = context.robot.0.to_string();
         let per_robot = |text: &str| text.replace("{robot}", &robot_text);
-        let path = resolve_path(Path::new(&per_robot(&config.path.to_string_lossy())));
+        let path = resolve_path(Path::new(&per_robot(&config.path.to_string_lossy())))?;
         let topics = Topics {
             points: per_robot(&config.points_topic),
             imu: Some(per_robot(&config.imu_topic)).filter(|t| !t.is_empty()),
             ground_truth: Some(per_robot(&config.ground_truth_topic)).filter(|t| !t.is_empty()),
             ground_truth_frame: config.ground_truth_frame.clone(),
+            tf_static: Some(config.tf_static_topic.clone()).filter(|t| !t.is_empty()),
         };
         let mut range = 0..usize::MAX;
         if config.split.enabled && context.fleet_size > 1 {
@@ -140,5 +145,18 @@ impl Source for BagSource {
         self.sequence += 1;
         self.remaining -= 1;
         Ok(Some(scan))
+    }
+}
+
+impl skid_core::PluginParams for BagConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        crate::check_path("path", &self.path)?;
+        if self.points_topic.trim().is_empty() {
+            return Err(skid_core::ParamError::at(
+                "points_topic",
+                "empty: name the sensor_msgs/PointCloud2 topic (`skid bag info` lists them)",
+            ));
+        }
+        Ok(())
     }
 }

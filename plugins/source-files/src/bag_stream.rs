@@ -15,6 +15,8 @@ use std::path::{Path, PathBuf};
 use skid_bag::{BagError, Connection, MessageReader, RawMessage, WireReader, require_topic};
 use skid_core::{ImuSample, Pose, RawPoint, Scan};
 
+use crate::static_frames::StaticFrames;
+
 /// The topics one robot reads.
 #[derive(Clone, Debug)]
 pub struct Topics {
@@ -23,6 +25,9 @@ pub struct Topics {
     pub ground_truth: Option<String>,
     /// The child frame taken from a `/tf` ground-truth topic.
     pub ground_truth_frame: String,
+    /// The static transform topic (`/tf_static`) the LiDAR→IMU extrinsic is read from, when the
+    /// recording has it.
+    pub tf_static: Option<String>,
 }
 
 /// Clouds decoded ahead of the IMU and ground truth at most; past it a cloud goes out without waiting.
@@ -47,6 +52,45 @@ pub struct ScanAssembler {
     other_index: u64,
     layout: Option<(Vec<PointField>, CloudLayout)>,
     ended: bool,
+    extrinsic: Extrinsic,
+}
+
+/// What the LiDAR→IMU extrinsic is found from: the static transforms and the frames the cloud and
+/// IMU messages name.
+#[derive(Default)]
+struct Extrinsic {
+    frames: StaticFrames,
+    cloud_frame: Option<String>,
+    imu_frame: Option<String>,
+    imu_from_sensor: Option<Pose>,
+    reported: bool,
+}
+
+impl Extrinsic {
+    /// `imu_from_sensor` once the frames are known and the static tree connects them.
+    fn resolve(&mut self, label: &Path) -> Option<Pose> {
+        if self.imu_from_sensor.is_none()
+            && let (Some(cloud), Some(imu)) = (&self.cloud_frame, &self.imu_frame)
+            && !self.frames.is_empty()
+        {
+            self.imu_from_sensor = self.frames.transform(imu, cloud);
+            if !self.reported {
+                self.reported = true;
+                match self.imu_from_sensor {
+                    Some(pose) => tracing::info!(
+                        "{}: LiDAR→IMU extrinsic from the static transforms ({imu} ← {cloud}): translation {:?} m",
+                        label.display(),
+                        pose.translation.vector.as_slice()
+                    ),
+                    None => tracing::warn!(
+                        "{}: the static transforms do not connect the IMU frame `{imu}` and the cloud frame `{cloud}`; no extrinsic",
+                        label.display()
+                    ),
+                }
+            }
+        }
+        self.imu_from_sensor
+    }
 }
 
 impl ScanAssembler {
@@ -65,6 +109,17 @@ impl ScanAssembler {
                 check_type(&label, &topics, &connection)?;
             }
         }
+        // The static transforms are read when the recording has them (or may have: a stream that does
+        // not list its topics up front); their absence is no error.
+        let mut topics = topics;
+        topics.tf_static = topics.tf_static.filter(|topic| {
+            !messages.connections_complete()
+                || messages
+                    .connections()
+                    .iter()
+                    .any(|c| c.topic == *topic && c.message_type == "tf2_msgs/TFMessage")
+        });
+        selected.extend(topics.tf_static.iter().cloned());
         messages.select_topics(&selected);
         Ok(Self {
             messages,
@@ -81,6 +136,7 @@ impl ScanAssembler {
             other_index: 0,
             layout: None,
             ended: false,
+            extrinsic: Extrinsic::default(),
         })
     }
 
@@ -137,8 +193,26 @@ impl ScanAssembler {
         self.other_index += 1;
         let mut reader = WireReader::new(&message.data, message.connection.encoding)
             .map_err(|problem| self.message_error(&message, index, problem))?;
-        if self.topics.imu.as_deref() == Some(topic) {
+        if self.topics.tf_static.as_deref() == Some(topic) {
+            let transforms = motion::decode_tf_message(&mut reader)
+                .map_err(|problem| self.message_error(&message, index, problem))?;
+            for transform in transforms {
+                if let Some(pose) = to_pose(&transform) {
+                    self.extrinsic
+                        .frames
+                        .insert(&transform.frame_id, &transform.child_frame_id, pose);
+                }
+            }
+        } else if self.topics.imu.as_deref() == Some(topic) {
             check_type(&self.label, &self.topics, &message.connection)?;
+            if self.extrinsic.imu_frame.is_none() {
+                let frame = reader
+                    .clone()
+                    .header()
+                    .map(|header| header.frame_id)
+                    .unwrap_or_default();
+                self.extrinsic.imu_frame = Some(frame).filter(|f| !f.is_empty());
+            }
             let sample = motion::decode_imu(&mut reader)
                 .map_err(|problem| self.message_error(&message, index, problem))?;
             self.latest_imu_nanos = Some(self.latest_imu_nanos.unwrap_or(0).max(sample.stamp_nanos));
@@ -167,6 +241,7 @@ impl ScanAssembler {
         let connection = &message.connection;
         if is_livox_custom(&connection.message_type) {
             let cloud = decode_livox_custom(&mut reader, &connection.message_type, &connection.definition)?;
+            self.note_cloud_frame(&cloud.header.frame_id);
             return Ok(self.scan_of(
                 connection,
                 cloud.header.stamp_nanos,
@@ -175,6 +250,7 @@ impl ScanAssembler {
             ));
         }
         let cloud = PointCloud2::decode(&mut reader)?;
+        self.note_cloud_frame(&cloud.header.frame_id);
         let layout = match &self.layout {
             Some((fields, layout)) if *fields == cloud.fields => layout.clone(),
             _ => {
@@ -190,6 +266,12 @@ impl ScanAssembler {
             decoded.points,
             decoded.dropped_non_finite,
         ))
+    }
+
+    fn note_cloud_frame(&mut self, frame: &str) {
+        if self.extrinsic.cloud_frame.is_none() && !frame.is_empty() {
+            self.extrinsic.cloud_frame = Some(frame.to_owned());
+        }
     }
 
     fn scan_of(
@@ -226,6 +308,7 @@ impl ScanAssembler {
             self.imu.pop_front();
         }
         scan.ground_truth_world_from_sensor = self.ground_truth_at(stamp);
+        scan.imu_from_sensor = self.extrinsic.resolve(&self.label);
         self.previous_scan_nanos = Some(stamp);
         scan
     }

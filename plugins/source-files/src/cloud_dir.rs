@@ -12,7 +12,7 @@ use crate::segment::{SplitConfig, segment};
 use crate::{io_error, resolve_path};
 
 /// Parameters of the `cloud_dir` source.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct CloudDirConfig {
     /// The folder of `.pcd` / `.ply` files; `{robot}` is replaced by the robot index.
@@ -60,7 +60,7 @@ impl CloudDirSource {
                 .path
                 .to_string_lossy()
                 .replace("{robot}", &context.robot.0.to_string()),
-        ));
+        ))?;
         let entries = std::fs::read_dir(&folder).map_err(|e| PluginError::io(&folder, e))?;
         let mut files: Vec<PathBuf> = entries
             .filter_map(|entry| entry.ok().map(|e| e.path()))
@@ -118,15 +118,16 @@ impl CloudDirSource {
 
     fn read_points(&self, path: &Path) -> PluginResult<Vec<RawPoint>> {
         let is_pcd = path.extension().is_some_and(|ext| ext == "pcd");
-        let points = if is_pcd {
-            skid_io::pcd::read_pcd(path, self.options)
-                .map_err(io_error)?
-                .points
+        let (points, report) = if is_pcd {
+            let cloud = skid_io::pcd::read_pcd(path, self.options).map_err(io_error)?;
+            (cloud.points, cloud.report)
         } else {
-            skid_io::ply::read_ply(path, self.options)
-                .map_err(io_error)?
-                .points
+            let cloud = skid_io::ply::read_ply(path, self.options).map_err(io_error)?;
+            (cloud.points, cloud.report)
         };
+        if let Some(warning) = report.under_count_warning(path) {
+            tracing::warn!("{warning}");
+        }
         Ok(points
             .iter()
             .map(|p| RawPoint::new(p.x, p.y, p.z, p.intensity, 0.0, RawPoint::UNKNOWN_RING))
@@ -150,6 +151,7 @@ impl Source for CloudDirSource {
             points,
             imu: Vec::new(),
             ground_truth_world_from_sensor: pose.map(|p| p.world_from_sensor),
+            imu_from_sensor: None,
         };
         self.next += 1;
         self.sequence += 1;
@@ -158,5 +160,12 @@ impl Source for CloudDirSource {
 
     fn remaining_hint(&self) -> Option<usize> {
         Some(self.end.saturating_sub(self.next))
+    }
+}
+
+impl skid_core::PluginParams for CloudDirConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        crate::check_path("path", &self.path)?;
+        skid_core::registry::check::positive("period_s", self.period_s)
     }
 }

@@ -14,7 +14,7 @@ use crate::segment::{SplitConfig, segment};
 use crate::{io_error, resolve_path};
 
 /// The frame `poses_file` is expressed in.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum PosesFrame {
     /// KITTI's own `poses.txt`: camera 0 poses, converted with `calib.txt`.
@@ -25,7 +25,7 @@ pub enum PosesFrame {
 }
 
 /// Parameters of the `kitti` source.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct KittiConfig {
     /// The sequence folder; `{robot}` is replaced by the robot index (one folder per robot).
@@ -73,7 +73,7 @@ impl KittiSource {
                 .path
                 .to_string_lossy()
                 .replace("{robot}", &context.robot.0.to_string()),
-        ));
+        ))?;
         let scans = list_scans(&folder.join("velodyne"))?;
         let times_path = folder.join("times.txt");
         let stamps_s = if times_path.is_file() {
@@ -136,6 +136,7 @@ impl Source for KittiSource {
             points,
             imu: Vec::new(),
             ground_truth_world_from_sensor: self.ground_truth.as_ref().map(|poses| poses[index]),
+            imu_from_sensor: None,
         };
         self.next += 1;
         self.sequence += 1;
@@ -195,4 +196,10 @@ fn read_ground_truth(
         }
     };
     Ok(Some(poses))
+}
+
+impl skid_core::PluginParams for KittiConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        crate::check_path("path", &self.path)
+    }
 }

@@ -12,6 +12,7 @@ pub mod bag_stream;
 mod cloud_dir;
 mod kitti;
 mod segment;
+pub mod static_frames;
 
 pub use segment::SplitConfig;
 
@@ -46,17 +47,37 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     Ok(())
 }
 
-/// Resolves a configured path: as given when it exists, else under the data folder.
-pub(crate) fn resolve_path(path: &std::path::Path) -> std::path::PathBuf {
-    if path.is_absolute() || path.exists() {
-        return path.to_owned();
+/// A configured path must name something.
+pub(crate) fn check_path(key: &str, path: &std::path::Path) -> Result<(), skid_core::ParamError> {
+    if path.as_os_str().is_empty() {
+        return Err(skid_core::ParamError::at(key, "empty: name a file or folder"));
     }
-    let under_data = skid_io::data_dir().join(path);
-    if under_data.exists() {
-        under_data
+    Ok(())
+}
+
+/// Resolves a configured path: as given when it exists, else under the data folder; when neither
+/// exists, an error that names both places and the variable that moves the data folder.
+pub(crate) fn resolve_path(path: &std::path::Path) -> Result<std::path::PathBuf, PluginError> {
+    if path.exists() {
+        return Ok(path.to_owned());
+    }
+    let data = skid_io::data_dir();
+    let under_data = data.join(path);
+    if !path.is_absolute() && under_data.exists() {
+        return Ok(under_data);
+    }
+    let looked = if path.is_absolute() {
+        String::new()
     } else {
-        path.to_owned()
-    }
+        format!(
+            " (looked in the current folder and in the data folder {}, which SKID_DATA_DIR sets)",
+            data.display()
+        )
+    };
+    Err(PluginError::InvalidInput(format!(
+        "{} does not exist{looked}",
+        path.display()
+    )))
 }
 
 /// Converts a skid-io error into a plugin error.

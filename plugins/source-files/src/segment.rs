@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Splitting options shared by the file sources.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct SplitConfig {
     /// Split the sequence into one consecutive segment per robot.

@@ -92,3 +92,25 @@ fn a_tf_ground_truth_without_a_frame_is_explained() {
         "{error}"
     );
 }
+
+#[test]
+fn the_lidar_to_imu_extrinsic_comes_from_tf_static() {
+    for bag in ["lz4.bag", "ros2_mcap"] {
+        // The fixture's `/tf_static` places `lidar` 0.1 m ahead of and 0.2 m above `imu_link`.
+        let got = scans(bag, "/velodyne/points", "/odom", "");
+        for (index, scan) in got.iter().enumerate() {
+            let extrinsic = scan
+                .imu_from_sensor
+                .unwrap_or_else(|| panic!("{bag} scan {index}: no extrinsic"));
+            let t = extrinsic.translation.vector;
+            assert!(
+                (t - nalgebra::Vector3::new(0.1, 0.0, 0.2)).norm() < 1e-12,
+                "{bag}: {t:?}"
+            );
+            assert!(extrinsic.rotation.angle() < 1e-12);
+        }
+        // Livox's frame is not in the static tree: no extrinsic rather than a wrong one.
+        let livox = scans(bag, "/livox/custom", "/odom", "");
+        assert!(livox.iter().all(|scan| scan.imu_from_sensor.is_none()), "{bag}");
+    }
+}

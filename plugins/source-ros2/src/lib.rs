@@ -21,7 +21,7 @@ use skid_source_files::bag_stream::{ScanAssembler, Topics};
 use zenoh::Wait;
 
 /// Parameters of the `ros2` source.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct Ros2Config {
     /// The `sensor_msgs/PointCloud2` topic; `{robot}` is replaced by the robot index.
@@ -126,6 +126,8 @@ impl Ros2Source {
             imu: Some(per_robot(&config.imu_topic)).filter(|t| !t.is_empty()),
             ground_truth: Some(per_robot(&config.ground_truth_topic)).filter(|t| !t.is_empty()),
             ground_truth_frame: config.ground_truth_frame.clone(),
+            // rmw_zenoh serves `/tf_static` to late joiners only through a query; not read live.
+            tf_static: None,
         };
         let session = zenoh::open(config.zenoh_config()?)
             .wait()
@@ -184,4 +186,10 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         },
     )?)?;
     Ok(())
+}
+
+impl skid_core::PluginParams for Ros2Config {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::from_plugin_error)
+    }
 }

@@ -22,7 +22,7 @@ use crate::link::LinkModel;
 use crate::stats::{HubStats, LinkStats};
 
 /// Where the hub's time comes from.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ClockMode {
     /// Time moves only when the runtime calls [`LoopbackHub::advance_to`]; `poll` never waits.

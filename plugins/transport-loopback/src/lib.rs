@@ -25,7 +25,7 @@ pub use link::{LinkModel, LinkQuality, RangePoint};
 pub use stats::{HubStats, LinkStats};
 
 /// Parameters of the `loopback` transport (`[transport.loopback]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct LoopbackConfig {
     /// Name of the process-wide hub the robots share; robots with the same name hear each other.
@@ -79,4 +79,16 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         },
     )?;
     registry.transport.register(entry)
+}
+
+impl skid_core::PluginParams for LoopbackConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        use skid_core::registry::check::count_within;
+        if self.hub.trim().is_empty() {
+            return Err(skid_core::ParamError::at("hub", "the hub name is empty"));
+        }
+        count_within("max_message_bytes", self.max_message_bytes, 1024, 1 << 30)?;
+        // The link model's messages start with its key; the registry finds it under `link.`.
+        self.link.validate().map_err(skid_core::ParamError::named_in)
+    }
 }

@@ -10,7 +10,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Link quality at one distance; the model interpolates linearly between points.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RangePoint {
     pub distance_m: f64,
@@ -34,7 +34,7 @@ impl RangePoint {
 }
 
 /// How messages fare between two robots.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct LinkModel {
     /// Effective application throughput of a robot's radio at short range, bits per second; every

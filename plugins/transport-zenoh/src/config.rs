@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::PluginError;
 
 /// What a sender does when the network cannot keep up.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Congestion {
     /// Drop the message (a slow peer never stalls the robot; the protocol resends what matters).
@@ -16,7 +16,7 @@ pub enum Congestion {
 }
 
 /// Parameters of the `zenoh` transport.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ZenohConfig {
     /// Endpoints this robot listens on, e.g. `tcp/0.0.0.0:7447`.
@@ -102,5 +102,11 @@ impl ZenohConfig {
                 .map_err(|error| PluginError::failed("zenoh", format!("config {key} = {value}: {error}")))?;
         }
         Ok(config)
+    }
+}
+
+impl skid_core::PluginParams for ZenohConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.validate().map_err(skid_core::ParamError::from_plugin_error)
     }
 }

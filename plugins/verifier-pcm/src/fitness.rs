@@ -29,7 +29,7 @@ use skid_core::{Point, Pose};
 use skid_geometry::voxel_downsample;
 
 /// Parameters of the truncated-MSE check.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct FitnessConfig {
     /// Run the check (off: every loop goes straight to the consistency stage).

@@ -22,7 +22,7 @@ use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::lie::chi2_quantile;
 
 /// Parameters of PCM.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PcmParams {
     /// Two loops are consistent when the squared Mahalanobis norm of their cycle is below the χ²

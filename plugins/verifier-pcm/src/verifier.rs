@@ -10,7 +10,7 @@ use crate::fitness::FitnessConfig;
 use crate::pcm::{Pcm, PcmParams};
 
 /// Parameters of the `pcm` verifier: `[verifier.pcm]` with the fitness check in `[verifier.pcm.fitness]`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PcmConfig {
     pub fitness: FitnessConfig,
@@ -18,7 +18,7 @@ pub struct PcmConfig {
 }
 
 /// Parameters of the `gnc` verifier.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct GncConfig {
     pub fitness: FitnessConfig,
@@ -147,5 +147,20 @@ impl Verifier for GncVerifier {
                 ..Verdict::default()
             },
         })
+    }
+}
+
+impl skid_core::PluginParams for PcmConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.fitness.validate().map_err(skid_core::ParamError::named_in)?;
+        self.consistency
+            .validate()
+            .map_err(skid_core::ParamError::named_in)
+    }
+}
+
+impl skid_core::PluginParams for GncConfig {
+    fn check(&self) -> Result<(), skid_core::ParamError> {
+        self.fitness.validate().map_err(skid_core::ParamError::named_in)
     }
 }

@@ -22,6 +22,30 @@ pub fn eval(gt: &Path, est: &Path, align: &str) -> Result<()> {
     };
     let report = skid_eval::evaluate_files(gt, est, &options)?;
     println!("{}", serde_json::to_string(&report)?);
+    let mut table = super::table::Table::new(&["metric", "rmse", "mean", "median", "max"]);
+    let mut row = |name: &str, stats: &skid_eval::ErrorStats| {
+        table.row(vec![
+            name.to_owned(),
+            format!("{:.4}", stats.rmse),
+            format!("{:.4}", stats.mean),
+            format!("{:.4}", stats.median),
+            format!("{:.4}", stats.max),
+        ]);
+    };
+    row("ATE (m)", &report.ate_m);
+    row("ARE (deg)", &report.are_deg);
+    row("RPE translation (m)", &report.rpe.translation_m);
+    row("RPE rotation (deg)", &report.rpe.rotation_deg);
+    super::table::show(&format!(
+        "\n{} poses paired ({:?}, {:?} alignment)\n{}",
+        report.associated_poses,
+        report.association,
+        alignment,
+        table.render()
+    ));
+    if let Some(warning) = report.alignment_conditioning.warning() {
+        tracing::warn!("{warning}");
+    }
     Ok(())
 }
 
@@ -32,12 +56,47 @@ pub fn pgo(file: &Path, robust: &str, init: &str, out: Option<&Path>) -> Result<
         init: Initialization::parse(init)?,
         ..PgoOptions::default()
     };
+    tracing::info!(file = %file.display(), robust, init, "optimising");
     let (mut report, graph) = skid_backend_pgo::optimize_g2o_file(file, &options)?;
+    tracing::info!(
+        iterations = report.iterations,
+        time_s = report.time_s,
+        final_cost = report.final_cost,
+        "optimised"
+    );
     if let Some(out) = out {
         skid_backend_pgo::write_g2o(out, &graph)?;
     }
     report.costs.clear();
     println!("{}", serde_json::to_string(&report)?);
+    let mut table = super::table::Table::new(&[
+        "vertices",
+        "edges (loops)",
+        "robust",
+        "iterations",
+        "cost start → final",
+        "outliers",
+        "time s",
+        "stop",
+    ]);
+    table.row(vec![
+        report.vertices.to_string(),
+        format!("{} ({})", report.edges, report.loop_edges),
+        report.robust.clone(),
+        report.iterations.to_string(),
+        format!("{:.6} → {:.6}", report.start_cost, report.final_cost),
+        report.outliers.to_string(),
+        format!("{:.3}", report.time_s),
+        report.stop.clone(),
+    ]);
+    super::table::show(&format!("\n{}\n{}", file.display(), table.render()));
+    if !report.converged {
+        anyhow::bail!(
+            "{}: the optimisation did not converge ({})",
+            file.display(),
+            report.stop
+        );
+    }
     Ok(())
 }
 

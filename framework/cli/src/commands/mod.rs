@@ -4,6 +4,7 @@ pub mod bag;
 pub mod extra;
 pub mod robot;
 pub mod sim_bag;
+pub mod table;
 pub mod tools;
 
 use std::path::{Path, PathBuf};
@@ -17,7 +18,8 @@ use crate::LayerArgs;
 /// Every plugin the binary knows: the built-ins, then the out-of-tree libraries given on the command line.
 pub fn registry(plugin_libs: &[PathBuf]) -> Result<Registry> {
     let mut registry = skid_builtin::registry().context("registering the built-in plugins")?;
-    for path in plugin_libs {
+    // An empty entry (`SKID_PLUGIN_LIBS=":"`, a trailing `:`) names no library.
+    for path in plugin_libs.iter().filter(|path| !path.as_os_str().is_empty()) {
         let plugin = skid_abi::load_into(&mut registry, path)
             .with_context(|| format!("loading plugin library {}", path.display()))?;
         tracing::debug!(plugin = plugin.name(), slot = %plugin.slot(), path = %path.display(), "loaded plugin library");
@@ -55,8 +57,13 @@ pub fn run(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> 
     );
     let total_scans = config.run.max_scans * u64::from(config.run.robots);
     let mut fleet = skid_runtime::Fleet::build(config, registry)?;
+    tracing::info!(robots = fleet.robots.len(), "plugins built; running");
     let bar = progress_bar(total_scans);
-    let outcome = fleet.run_lockstep(|scans| bar.set_position(scans as u64));
+    let mut progress = ProgressLog::new(total_scans);
+    let outcome = fleet.run_lockstep(|scans| {
+        bar.set_position(scans as u64);
+        progress.update(scans as u64);
+    });
     bar.finish_and_clear();
     let summary = match outcome {
         Ok(summary) => summary,
@@ -67,9 +74,39 @@ pub fn run(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> 
             return Err(abandoned(&config, error));
         }
     };
-    let folder = skid_runtime::write_outputs(&fleet, &summary)?;
+    tracing::info!(
+        scans = progress.scans,
+        wall_s = summary.wall_s,
+        "robots finished; writing outputs"
+    );
+    let (folder, metrics) = skid_runtime::write_outputs(&fleet, &summary)?;
     tracing::info!(folder = %folder.display(), wall_s = summary.wall_s, "finished");
     println!("{}", serde_json::to_string(&summary)?);
+    table::show(&table::run_table(&summary, &metrics, &folder));
+    check_every_robot_registered(&summary)
+}
+
+/// A run in which a robot registered no scan produced nothing for it: that is a failure, with the
+/// reason, even though the outputs were written.
+pub(crate) fn check_every_robot_registered(summary: &skid_runtime::RunSummary) -> Result<()> {
+    let empty: Vec<String> = summary
+        .robots
+        .iter()
+        .filter(|robot| robot.scans == 0)
+        .map(|robot| {
+            if robot.scans_read == 0 {
+                format!("robot {} read no scan from its source", robot.robot)
+            } else {
+                format!(
+                    "robot {} read {} scans and the odometry skipped every one (the log says why)",
+                    robot.robot, robot.scans_read
+                )
+            }
+        })
+        .collect();
+    if !empty.is_empty() {
+        bail!("the run registered no scan for {}", empty.join("; "));
+    }
     Ok(())
 }
 
@@ -82,6 +119,51 @@ pub(crate) fn abandoned(config: &ResolvedConfig, error: skid_runtime::RuntimeErr
             folder.display()
         )),
         None => error.into(),
+    }
+}
+
+/// Progress as log lines every few seconds when stderr is not a terminal (a log file, CI), where the
+/// progress bar is not drawn.
+struct ProgressLog {
+    total_scans: u64,
+    scans: u64,
+    started: std::time::Instant,
+    last: std::time::Instant,
+    enabled: bool,
+}
+
+impl ProgressLog {
+    const PERIOD_S: f64 = 10.0;
+
+    fn new(total_scans: u64) -> Self {
+        let now = std::time::Instant::now();
+        Self {
+            total_scans,
+            scans: 0,
+            started: now,
+            last: now,
+            enabled: !std::io::IsTerminal::is_terminal(&std::io::stderr()),
+        }
+    }
+
+    fn update(&mut self, scans: u64) {
+        self.scans = scans;
+        if !self.enabled || self.last.elapsed().as_secs_f64() < Self::PERIOD_S {
+            return;
+        }
+        self.last = std::time::Instant::now();
+        let elapsed_s = self.started.elapsed().as_secs_f64();
+        let rate = scans as f64 / elapsed_s.max(1e-9);
+        if self.total_scans > 0 {
+            let remaining_s = self.total_scans.saturating_sub(scans) as f64 / rate.max(1e-9);
+            tracing::info!(
+                "{scans}/{} scans ({:.0}%), {rate:.1} scans/s, {elapsed_s:.0} s elapsed, about {remaining_s:.0} s left",
+                self.total_scans,
+                100.0 * scans as f64 / self.total_scans as f64
+            );
+        } else {
+            tracing::info!("{scans} scans, {rate:.1} scans/s, {elapsed_s:.0} s elapsed");
+        }
     }
 }
 
@@ -127,6 +209,7 @@ pub fn plugins(registry: &Registry, slot: Option<&str>, json: bool) -> Result<()
                     "summary": info.summary,
                     "origin": info.origin,
                     "defaults": toml_to_json(info.defaults.table()),
+                    "docs": info.docs,
                 })
             })
             .collect();
@@ -145,14 +228,40 @@ pub fn plugins(registry: &Registry, slot: Option<&str>, json: bool) -> Result<()
             if info.origin != "built-in" {
                 println!("    from {}", info.origin);
             }
-            let defaults = info.defaults.to_toml_string();
-            for line in defaults.lines().filter(|line| !line.trim().is_empty()) {
-                println!("      {line}");
-            }
+            print_parameters(info.defaults.table(), &info.docs, "");
             println!();
         }
     }
     Ok(())
+}
+
+/// A plugin's default parameters, one per line with what it means, nested tables as `[a.b]` headers.
+fn print_parameters(table: &toml::Table, docs: &skid_core::registry::ParamDocs, prefix: &str) {
+    let mut nested = Vec::new();
+    for (key, value) in table {
+        let full = if prefix.is_empty() {
+            key.clone()
+        } else {
+            format!("{prefix}.{key}")
+        };
+        match value {
+            toml::Value::Table(inner) => nested.push((full, inner)),
+            _ => {
+                let shown = format!("{key} = {value}");
+                match docs.get(&full) {
+                    Some(doc) => println!("      {shown:<36} # {doc}"),
+                    None => println!("      {shown}"),
+                }
+            }
+        }
+    }
+    for (full, inner) in nested {
+        match docs.get(&full) {
+            Some(doc) => println!("      [{full}]  # {doc}"),
+            None => println!("      [{full}]"),
+        }
+        print_parameters(inner, docs, &full);
+    }
 }
 
 fn toml_to_json(table: &toml::Table) -> serde_json::Value {

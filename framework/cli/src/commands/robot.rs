@@ -34,8 +34,9 @@ pub fn run_robot(registry: &Registry, config: ResolvedConfig) -> Result<()> {
             return Err(super::abandoned(&config, error));
         }
     };
-    let folder = skid_runtime::write_outputs(robot.fleet(), &summary)?;
+    let (folder, metrics) = skid_runtime::write_outputs(robot.fleet(), &summary)?;
     tracing::info!(folder = %folder.display(), wall_s = summary.wall_s, "finished");
     println!("{}", serde_json::to_string(&summary)?);
-    Ok(())
+    super::table::show(&super::table::run_table(&summary, &metrics, &folder));
+    super::check_every_robot_registered(&summary)
 }

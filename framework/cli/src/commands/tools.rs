@@ -28,6 +28,9 @@ fn context() -> PluginContext {
 
 fn read_points(path: &Path) -> Result<Cloud> {
     let cloud = skid_io::read_cloud(path, CloudReadOptions::VALID_ONLY)?;
+    if let Some(warning) = cloud.report.under_count_warning(path) {
+        tracing::warn!("{warning}");
+    }
     Ok(Cloud::new(cloud.points))
 }
 
@@ -88,6 +91,7 @@ pub fn register(
         guess = result.target_from_source;
     }
     let mut pose = guess;
+    let mut not_converged = None;
     if let Some(name) = fine.filter(|n| *n != "none") {
         let params = params_for(registry, layers, Slot::Fine, name)?;
         let mut plugin = registry.fine.create(name, &params, &context())?;
@@ -103,7 +107,17 @@ pub fn register(
         report.insert("inliers".into(), result.inlier_count.into());
         report.insert("inlier_ratio".into(), result.inlier_ratio.into());
         report.insert("error".into(), result.error.into());
+        if let Some(reason) = &result.failure {
+            report.insert("failure".into(), reason.clone().into());
+        }
         pose = result.target_from_source;
+        if !result.converged {
+            not_converged = Some(format!(
+                "fine registration `{name}` did not converge after {} iterations: {}",
+                result.iterations,
+                result.failure.as_deref().unwrap_or("no reason given")
+            ));
+        }
     }
     let matrix = pose.to_homogeneous();
     let rows: Vec<Vec<f64>> = (0..4).map(|r| (0..4).map(|c| matrix[(r, c)]).collect()).collect();
@@ -111,8 +125,12 @@ pub fn register(
     report.insert("target_points".into(), target_cloud.len().into());
     report.insert("source_points".into(), source_cloud.len().into());
     report.insert("stages".into(), stages.into());
+    // The JSON line goes out either way (scripts read the last estimate); a failure still exits non-zero.
     println!("{}", serde_json::Value::Object(report));
-    Ok(())
+    match not_converged {
+        Some(reason) => bail!("{reason}"),
+        None => Ok(()),
+    }
 }
 
 /// `skid odometry SEQ_DIR [--out DIR]`: runs the configured odometry on a KITTI-format folder.
@@ -136,26 +154,77 @@ pub fn odometry(registry: &Registry, folder: &Path, out: Option<&Path>, layers: 
         bail!("no odometry configured: set odometry.plugin");
     }
     let context = context();
-    let mut source = registry
+    let source = registry
         .source
         .create(source_name, &config.slot(Slot::Source).params, &context)?;
-    let mut odometry =
-        registry
-            .odometry
-            .create(&odometry_name, &config.slot(Slot::Odometry).params, &context)?;
+    let odometry = registry
+        .odometry
+        .create(&odometry_name, &config.slot(Slot::Odometry).params, &context)?;
+    // The same front-end as `skid run`, so a scan the odometry cannot use is skipped here as it is there.
+    let mut front_end = skid_runtime::FrontEnd {
+        source,
+        odometry: Some(odometry),
+    };
     let (mut estimate, mut truth, mut times_ms) = (Vec::new(), Vec::new(), Vec::new());
-    while let Some(scan) = source.next_scan()? {
-        let started = Instant::now();
-        let update = odometry.register(&scan)?;
-        times_ms.push(ms_since(started));
-        estimate.push(skid_io::trajectory::StampedPose {
-            stamp_s: scan.stamp_nanos as f64 * 1e-9,
-            world_from_sensor: update.world_from_sensor,
-        });
-        if let Some(pose) = scan.ground_truth_world_from_sensor {
-            truth.push(pose);
+    let mut skipped = skid_runtime::WarnLimiter::default();
+    let mut scans_read = 0usize;
+    let mut last_report = Instant::now();
+    while let Some(output) = front_end
+        .next_output()
+        .map_err(|error| anyhow::Error::new(error.source).context(format!("{} plugin", error.slot)))?
+    {
+        scans_read += 1;
+        match output.odometry {
+            Some(skid_runtime::OdometryOutcome::Registered {
+                world_from_sensor, ..
+            }) => {
+                times_ms.push(output.odometry_ms);
+                estimate.push(skid_io::trajectory::StampedPose {
+                    stamp_s: output.stamp_nanos as f64 * 1e-9,
+                    world_from_sensor,
+                });
+                // Truth and estimate stay paired: a scan without ground truth drops the comparison.
+                truth.push(output.ground_truth);
+            }
+            Some(skid_runtime::OdometryOutcome::Skipped { reason }) => {
+                if let Some(count) = skipped.occurrence() {
+                    tracing::warn!(
+                        sequence = output.sequence,
+                        skipped_so_far = count,
+                        %reason,
+                        "scan skipped (repeats are logged at 10, 100, 1000, …)"
+                    );
+                }
+            }
+            None => {}
         }
+        if last_report.elapsed().as_secs_f64() >= 5.0 {
+            tracing::info!(
+                scans = scans_read,
+                registered = estimate.len(),
+                "odometry running"
+            );
+            last_report = Instant::now();
+        }
+        tracing::debug!(
+            sequence = output.sequence,
+            points = output.points,
+            odometry_ms = output.odometry_ms,
+            "scan"
+        );
     }
+    if estimate.is_empty() {
+        bail!(
+            "{}: no scan registered ({scans_read} read, {} skipped by `{odometry_name}`)",
+            folder.display(),
+            skipped.count()
+        );
+    }
+    let truth: Vec<skid_core::Pose> = if truth.iter().all(Option::is_some) {
+        truth.into_iter().flatten().collect()
+    } else {
+        Vec::new()
+    };
     let out = out
         .map(Path::to_owned)
         .unwrap_or_else(|| PathBuf::from("runs/odometry"));
@@ -173,17 +242,41 @@ pub fn odometry(registry: &Registry, folder: &Path, out: Option<&Path>, layers: 
     };
     let mut line = serde_json::json!({
         "frames": estimate.len(),
+        "scans_read": scans_read,
+        "scans_skipped": skipped.count(),
         "odometry": odometry_name,
         "ms_per_frame_median": at(0.5),
         "ms_per_frame_p90": at(0.9),
         "out": out.display().to_string(),
     });
+    let mut table = super::table::Table::new(&[
+        "frames",
+        "skipped",
+        "ms/frame median (p90)",
+        "ATE m, first pose aligned",
+        "final drift % of path",
+    ]);
+    let mut errors = (None, None);
     if truth.len() == poses.len() && !truth.is_empty() {
         let (ate_m, drift_percent) = first_pose_aligned_errors(&poses, &truth);
         line["ate_first_pose_aligned_m"] = ate_m.into();
         line["final_drift_percent"] = drift_percent.into();
+        errors = (Some(format!("{ate_m:.3}")), Some(format!("{drift_percent:.2}")));
     }
     println!("{line}");
+    table.row(vec![
+        estimate.len().to_string(),
+        skipped.count().to_string(),
+        format!("{:.1} ({:.1})", at(0.5), at(0.9)),
+        errors.0.unwrap_or_else(|| "- (no ground truth)".into()),
+        errors.1.unwrap_or_else(|| "-".into()),
+    ]);
+    super::table::show(&format!(
+        "\nodometry `{odometry_name}` on {}\n{}  outputs: {}\n",
+        folder.display(),
+        table.render(),
+        out.display()
+    ));
     Ok(())
 }
 

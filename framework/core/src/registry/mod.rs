@@ -1,10 +1,14 @@
 //! The explicit plugin registry: a typed table per slot, filled by `register_all` functions (built-ins)
 //! and by the dynamic loader (cdylib plugins), and queried by name when a config is instantiated.
 
+pub mod check;
+pub mod docs;
 mod params;
 mod slot;
 mod table;
 
+pub use check::PluginParams;
+pub use docs::{ParamDocs, param_docs};
 pub use params::{ParamError, Params};
 pub use slot::Slot;
 pub use table::{PluginEntry, PluginInfo, SlotTable};

@@ -3,10 +3,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use serde::Serialize;
-use serde::de::DeserializeOwned;
-
-use super::{ParamError, Params, PluginContext, Slot};
+use super::{ParamDocs, ParamError, Params, PluginContext, PluginParams, Slot, param_docs};
 use crate::PluginError;
 
 type Constructor<T> = Arc<dyn Fn(&Params, &PluginContext) -> Result<Box<T>, PluginError> + Send + Sync>;
@@ -18,6 +15,7 @@ pub struct PluginEntry<T: ?Sized> {
     summary: String,
     origin: String,
     defaults: Params,
+    docs: ParamDocs,
     validate: Validator,
     construct: Constructor<T>,
 }
@@ -29,6 +27,7 @@ impl<T: ?Sized> Clone for PluginEntry<T> {
             summary: self.summary.clone(),
             origin: self.origin.clone(),
             defaults: self.defaults.clone(),
+            docs: self.docs.clone(),
             validate: Arc::clone(&self.validate),
             construct: Arc::clone(&self.construct),
         }
@@ -37,20 +36,29 @@ impl<T: ?Sized> Clone for PluginEntry<T> {
 
 impl<T: ?Sized + 'static> PluginEntry<T> {
     /// A built-in plugin whose parameters are the serde type `C` (`deny_unknown_fields`, `Default` = the
-    /// reference values). `construct` receives the parsed parameters.
+    /// reference values, `check` = the valid ranges). `construct` receives the parsed, checked parameters.
     pub fn new<C, F>(name: &str, summary: &str, construct: F) -> Result<Self, ParamError>
     where
-        C: DeserializeOwned + Serialize + Default + 'static,
+        C: PluginParams,
         F: Fn(C, &PluginContext) -> Result<Box<T>, PluginError> + Send + Sync + 'static,
     {
+        let defaults = Params::from_config(&C::default())?;
+        let keys = defaults.table().clone();
+        let parse_checked = move |params: &Params| -> Result<C, ParamError> {
+            let config = params.parse::<C>()?;
+            config.check().map_err(|error| error.locate_in(&keys))?;
+            Ok(config)
+        };
+        let parse_for_construct = parse_checked.clone();
         Ok(Self {
             name: name.to_owned(),
             summary: summary.to_owned(),
             origin: "built-in".to_owned(),
-            defaults: Params::from_config(&C::default())?,
-            validate: Arc::new(|params: &Params| params.parse::<C>().map(drop)),
+            defaults,
+            docs: param_docs::<C>(),
+            validate: Arc::new(move |params: &Params| parse_checked(params).map(drop)),
             construct: Arc::new(move |params: &Params, context: &PluginContext| {
-                let config = params.parse::<C>()?;
+                let config = parse_for_construct(params)?;
                 construct(config, context)
             }),
         })
@@ -71,6 +79,7 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
             summary: summary.to_owned(),
             origin: origin.to_owned(),
             defaults,
+            docs: ParamDocs::new(),
             validate: Arc::new(validate),
             construct: Arc::new(construct),
         }
@@ -95,6 +104,8 @@ pub struct PluginInfo {
     /// `built-in`, or the path of the library a dynamic plugin came from.
     pub origin: String,
     pub defaults: Params,
+    /// What each parameter means (dotted keys; empty for plugins that do not describe theirs).
+    pub docs: ParamDocs,
 }
 
 /// The plugins of one slot, by name.
@@ -162,6 +173,7 @@ impl<T: ?Sized + 'static> SlotTable<T> {
                 summary: entry.summary.clone(),
                 origin: entry.origin.clone(),
                 defaults: entry.defaults.clone(),
+                docs: entry.docs.clone(),
             })
             .collect()
     }

@@ -134,6 +134,7 @@ pub fn read_pcd_raw(
     };
     let n = header.points;
     let point_bytes = header.point_bytes();
+    let mut unread_trailing_bytes = 0;
     let data = &bytes[data_offset..];
     match header.data {
         PcdData::Ascii => read_ascii(path, &header, &layout, data, header_lines, &mut push)?,
@@ -147,6 +148,11 @@ pub fn read_pcd_raw(
                     need as u64,
                     data.len() as u64,
                 ));
+            }
+            // More than one point's worth of data beyond the announced points: the header under-counts.
+            let trailing = data.len() - need;
+            if trailing >= point_bytes.max(1) {
+                unread_trailing_bytes = trailing as u64;
             }
             for i in 0..n {
                 let record = &data[i * point_bytes..(i + 1) * point_bytes];
@@ -164,10 +170,12 @@ pub fn read_pcd_raw(
             }
         }
     }
+    let mut report = filter.report;
+    report.unread_trailing_bytes = unread_trailing_bytes;
     Ok(PcdCloud {
         header,
         points,
-        report: filter.report,
+        report,
     })
 }
 

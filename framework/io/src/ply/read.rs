@@ -24,6 +24,10 @@ trait ValueSource {
     fn location(&self) -> Location;
     /// Checks that nothing but whitespace follows the last element.
     fn finish(&mut self) -> Result<(), IoError>;
+    /// Binary bytes left after the last element (0 for ascii, where extra lines are an error).
+    fn trailing_bytes(&self) -> u64 {
+        0
+    }
 }
 
 /// Binary little- or big-endian data.
@@ -74,8 +78,13 @@ impl ValueSource for Binary<'_> {
     }
 
     fn finish(&mut self) -> Result<(), IoError> {
-        // Trailing bytes after the last element are tolerated (some writers pad or append a newline).
+        // Trailing bytes after the last element are tolerated (some writers pad or append a newline);
+        // more is reported by `trailing_bytes`.
         Ok(())
+    }
+
+    fn trailing_bytes(&self) -> u64 {
+        (self.bytes.len() - self.position) as u64
     }
 }
 
@@ -286,6 +295,12 @@ fn read_body(
         }
     }
     source.finish()?;
+    // Padding or a final newline is fine; a whole vertex's worth or more means the count is short.
+    let vertex_bytes = header.elements[vertex_index].fixed_size().unwrap_or(1).max(1) as u64;
+    let trailing = source.trailing_bytes();
+    if trailing >= vertex_bytes && vertex_index + 1 == header.elements.len() {
+        filter.report.unread_trailing_bytes = trailing;
+    }
     Ok(PlyCloud {
         header,
         points,
