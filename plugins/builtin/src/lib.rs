@@ -16,6 +16,8 @@ pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     skid_odometry_gt::register(registry)?;
     #[cfg(feature = "odometry-kiss")]
     skid_odometry_kiss::register(registry)?;
+    #[cfg(feature = "odometry-lio")]
+    skid_odometry_lio::register(registry)?;
     #[cfg(feature = "descriptor-solid")]
     skid_descriptor_solid::register(registry)?;
     #[cfg(feature = "descriptor-scan-context")]

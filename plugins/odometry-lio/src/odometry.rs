@@ -1,0 +1,634 @@
+//! The `lio` odometry: a tightly coupled LiDAR-inertial iterated error-state Kalman filter in the
+//! FAST-LIO2 formulation (Xu et al., T-RO 2022), with a voxel-hashed plane map (Faster-LIO's iVox).
+//!
+//! Per scan (stamp `t`, the start of the sweep; its IMU samples are those since the previous stamp):
+//! 1. the IMU samples are checked (non-finite or non-monotonic ones are dropped, with a warning) and the
+//!    state propagated through them to `t` ([`crate::propagate`]); a gap longer than `max_imu_gap_s`,
+//!    or a scan without samples, is crossed at constant velocity, with a warning;
+//! 2. until `init_duration_s` of samples have been seen, the robot is taken to stand still: their mean
+//!    gives the gyroscope bias and gravity (static initialisation, as FAST-LIO2 does);
+//! 3. each point is moved to the sensor frame at `t` by the motion the filter predicts over its time
+//!    offset. The sweep's own IMU samples arrive with the next scan, so that motion is the latest
+//!    bias-corrected angular rate and acceleration held over the sweep (FAST-LIO2 integrates the
+//!    samples inside the sweep backwards instead; its scans come after their IMU data);
+//! 4. the iterated update against the map ([`crate::update`]), with degeneracy reported;
+//! 5. the scan enters the map, and keyframes come out as from `kiss_icp`: the deskewed, voxel-downsampled
+//!    cloud in the sensor frame at `t` with `world_from_sensor`.
+//!
+//! The odometry's world frame is the first scan's sensor frame, as for every odometry in SKiD. Without
+//! any IMU (a source without one) the filter runs on a constant-velocity model with a wide process noise,
+//! so the LiDAR carries the estimate.
+
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+use skid_core::slots::{Odometry, OdometryUpdate};
+use skid_core::{
+    Cloud, ImuSample, Keyframe, KeyframeId, PluginContext, PluginError, PluginResult, Point, Pose, RawPoint,
+    RobotId, Scan,
+};
+use skid_geometry::{KeyframeTrigger, voxel_downsample};
+
+use crate::config::LioConfig;
+use crate::plane_map::PlaneMap;
+use crate::propagate::{Motion, ProcessNoise, coast, propagate};
+use crate::state::{BA, BG, Covariance, GRAV, POS, ROT, State, VEL};
+use crate::update::{UpdateOutcome, UpdateSettings, iterated_update};
+
+/// Fewest finite points a scan must have to be used.
+pub const MIN_SCAN_POINTS: usize = 10;
+
+/// Accelerations (m/s²) and angular-rate changes (rad/s per s) the constant-velocity model leaves open.
+const COAST_ACCEL_SIGMA_MPS2: f64 = 2.0;
+const COAST_GYRO_SIGMA_RADPS: f64 = 1.0;
+
+/// Counters of what the filter met, for summaries and tests.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LioCounters {
+    pub scans: u64,
+    /// Scans whose update found a direction the planes barely constrain.
+    pub degenerate_scans: u64,
+    /// Scans crossed without IMU samples (no IMU, or a gap).
+    pub imu_gaps: u64,
+    /// IMU samples dropped: not finite, or not after the previous one.
+    pub bad_imu_samples: u64,
+    /// Scans whose update found no plane (the prediction stood).
+    pub unconstrained_scans: u64,
+}
+
+/// The static initialisation's running sums.
+#[derive(Clone, Debug, Default)]
+struct StaticInit {
+    samples: usize,
+    first_nanos: Option<u64>,
+    last_nanos: u64,
+    gyro_sum: Vector3<f64>,
+    accel_sum: Vector3<f64>,
+}
+
+/// The estimator's state between scans.
+pub struct LioOdometry {
+    config: LioConfig,
+    robot: RobotId,
+    pool: Option<rayon::ThreadPool>,
+    noise: ProcessNoise,
+    map: PlaneMap,
+    trigger: KeyframeTrigger,
+    state: State,
+    covariance: Covariance,
+    /// The time of `state`, and the last accepted IMU sample.
+    state_nanos: Option<u64>,
+    last_sample: Option<ImuSample>,
+    init: StaticInit,
+    initialised: bool,
+    imu_from_sensor: Option<Pose>,
+    /// The last scans' sensor poses, for the constant-velocity model without IMU.
+    last_world_from_sensor: Option<(u64, Pose)>,
+    previous_world_from_sensor: Option<(u64, Pose)>,
+    counters: LioCounters,
+    last_update: Option<UpdateOutcome>,
+}
+
+impl std::fmt::Debug for LioOdometry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LioOdometry")
+            .field("robot", &self.robot)
+            .field("map_points", &self.map.point_count())
+            .field("state", &self.state)
+            .field("counters", &self.counters)
+            .finish()
+    }
+}
+
+fn initial_covariance() -> Covariance {
+    let mut covariance = Covariance::zeros();
+    for (start, variance) in [
+        (ROT, 1e-6),
+        (POS, 1e-6),
+        (VEL, 1e-2),
+        (BG, 1e-4),
+        (BA, 1e-2),
+        (GRAV, 1e-4),
+    ] {
+        for i in start..start + 3 {
+            covariance[(i, i)] = variance;
+        }
+    }
+    covariance
+}
+
+fn pose_from_config(values: &[f64; 6]) -> Pose {
+    let [x, y, z, roll, pitch, yaw] = *values;
+    Pose::from_parts(
+        nalgebra::Translation3::new(x, y, z),
+        UnitQuaternion::from_euler_angles(roll.to_radians(), pitch.to_radians(), yaw.to_radians()),
+    )
+}
+
+fn sample_is_finite(sample: &ImuSample) -> bool {
+    sample
+        .accel_mps2
+        .iter()
+        .chain(&sample.gyro_radps)
+        .all(|v| v.is_finite())
+}
+
+impl LioOdometry {
+    /// A fresh filter; the world frame will be the first scan's sensor frame.
+    pub fn new(config: LioConfig, context: &PluginContext) -> PluginResult<Self> {
+        skid_core::PluginParams::check(&config).map_err(PluginError::Params)?;
+        let pool = if context.threads > 1 {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(context.threads)
+                    .thread_name(|index| format!("lio-{index}"))
+                    .build()
+                    .map_err(|e| PluginError::failed("lio", format!("cannot build a thread pool: {e}")))?,
+            )
+        } else {
+            None
+        };
+        Ok(Self {
+            noise: ProcessNoise {
+                gyro_variance: config.gyro_variance,
+                accel_variance: config.accel_variance,
+                gyro_bias_variance: config.gyro_bias_variance,
+                accel_bias_variance: config.accel_bias_variance,
+            },
+            map: PlaneMap::new(config.map_voxel_m, config.max_points_per_voxel),
+            trigger: KeyframeTrigger::new(config.keyframe.clone()),
+            robot: context.robot,
+            pool,
+            state: State::default(),
+            covariance: initial_covariance(),
+            state_nanos: None,
+            last_sample: None,
+            init: StaticInit::default(),
+            initialised: false,
+            imu_from_sensor: config.imu_from_sensor.as_ref().map(pose_from_config),
+            last_world_from_sensor: None,
+            previous_world_from_sensor: None,
+            counters: LioCounters::default(),
+            last_update: None,
+            config,
+        })
+    }
+
+    pub fn counters(&self) -> &LioCounters {
+        &self.counters
+    }
+
+    /// The filter's state (IMU in the world frame) after the last scan.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// Whether the static initialisation has fixed gravity and the gyroscope bias.
+    pub fn initialised(&self) -> bool {
+        self.initialised
+    }
+
+    /// Diagnostics of the last update.
+    pub fn last_update(&self) -> Option<&UpdateOutcome> {
+        self.last_update.as_ref()
+    }
+
+    /// A scan whose stamp does not advance is refused before anything changes.
+    fn check_stamp(&self, scan: &Scan) -> PluginResult<()> {
+        if let Some((previous, _)) = self
+            .last_world_from_sensor
+            .filter(|(t, _)| scan.stamp_nanos <= *t)
+        {
+            return Err(PluginError::InvalidInput(format!(
+                "scan {} of {}: stamp {} ns does not advance past the previous scan's {previous} ns",
+                scan.sequence, scan.robot, scan.stamp_nanos
+            )));
+        }
+        Ok(())
+    }
+
+    fn too_few_points(&self, scan: &Scan, count: usize, what: &str) -> PluginError {
+        PluginError::InvalidInput(format!(
+            "scan {} of {}: {count} {what}, at least {MIN_SCAN_POINTS} needed",
+            scan.sequence, scan.robot
+        ))
+    }
+
+    /// The IMU samples of `scan` that can be used: finite and after the last one used.
+    fn usable_samples(&mut self, scan: &Scan) -> Vec<ImuSample> {
+        let mut after = self.last_sample.map(|s| s.stamp_nanos);
+        let mut usable = Vec::with_capacity(scan.imu.len());
+        let mut dropped = 0u64;
+        for sample in &scan.imu {
+            let advances = after.is_none_or(|t| sample.stamp_nanos > t);
+            if sample_is_finite(sample) && advances && sample.stamp_nanos <= scan.stamp_nanos {
+                after = Some(sample.stamp_nanos);
+                usable.push(*sample);
+            } else {
+                dropped += 1;
+            }
+        }
+        if dropped > 0 {
+            self.counters.bad_imu_samples += dropped;
+            tracing::warn!(
+                robot = %self.robot,
+                scan = scan.sequence,
+                dropped,
+                "lio: IMU samples dropped (not finite, or not after the previous sample)"
+            );
+        }
+        usable
+    }
+
+    /// Accumulates samples while the robot stands still; fixes gravity and the gyro bias once enough
+    /// time is covered.
+    fn initialise(&mut self, samples: &[ImuSample], imu_from_sensor: &Pose) {
+        for sample in samples {
+            self.init.samples += 1;
+            self.init.first_nanos.get_or_insert(sample.stamp_nanos);
+            self.init.last_nanos = sample.stamp_nanos;
+            self.init.gyro_sum += Vector3::from(sample.gyro_radps);
+            self.init.accel_sum += Vector3::from(sample.accel_mps2);
+        }
+        let covered_s = self
+            .init
+            .first_nanos
+            .map_or(0.0, |first| (self.init.last_nanos - first) as f64 * 1e-9);
+        if self.init.samples < 2 || covered_s + 1e-9 < self.config.init_duration_s {
+            return;
+        }
+        let count = self.init.samples as f64;
+        let mean_accel = self.init.accel_sum / count;
+        // The world frame is the first scan's sensor frame: the IMU sits at `sensor_from_imu` in it.
+        let world_from_imu = self.state.world_from_imu();
+        self.state.gyro_bias = self.init.gyro_sum / count;
+        self.state.gravity = world_from_imu.rotation * (-mean_accel);
+        self.state.accel_bias = Vector3::zeros();
+        self.initialised = true;
+        tracing::info!(
+            robot = %self.robot,
+            samples = self.init.samples,
+            gravity_mps2 = self.state.gravity.norm(),
+            gyro_bias_radps = ?self.state.gyro_bias.as_slice(),
+            extrinsic_m = ?imu_from_sensor.translation.vector.as_slice(),
+            "lio: static initialisation done"
+        );
+    }
+
+    /// Propagates the filter through `samples` and then to `stamp_nanos`.
+    fn predict(&mut self, samples: &[ImuSample], stamp_nanos: u64, scan: u32) {
+        let Some(mut time) = self.state_nanos else {
+            return;
+        };
+        let mut gap = false;
+        for sample in samples {
+            let dt_s = sample.stamp_nanos.saturating_sub(time) as f64 * 1e-9;
+            let gap_limit_nanos = (self.config.max_imu_gap_s * 1e9) as u64;
+            match self.last_sample {
+                Some(previous)
+                    if dt_s <= self.config.max_imu_gap_s
+                        && sample.stamp_nanos - previous.stamp_nanos <= gap_limit_nanos =>
+                {
+                    let motion = Motion {
+                        gyro_radps: 0.5
+                            * (Vector3::from(previous.gyro_radps) + Vector3::from(sample.gyro_radps)),
+                        accel_mps2: 0.5
+                            * (Vector3::from(previous.accel_mps2) + Vector3::from(sample.accel_mps2)),
+                    };
+                    propagate(&mut self.state, &mut self.covariance, &motion, dt_s, &self.noise);
+                }
+                _ => {
+                    gap |= dt_s > self.config.max_imu_gap_s;
+                    let omega = self.latest_omega();
+                    coast(
+                        &mut self.state,
+                        &mut self.covariance,
+                        &omega,
+                        dt_s,
+                        COAST_ACCEL_SIGMA_MPS2,
+                        COAST_GYRO_SIGMA_RADPS,
+                    );
+                }
+            }
+            time = sample.stamp_nanos;
+            self.last_sample = Some(*sample);
+        }
+        // From the last sample to the scan stamp: that sample held, unless the silence is a gap.
+        let dt_s = stamp_nanos.saturating_sub(time) as f64 * 1e-9;
+        match self.last_sample {
+            Some(last) if dt_s <= self.config.max_imu_gap_s => {
+                let motion = Motion {
+                    gyro_radps: Vector3::from(last.gyro_radps),
+                    accel_mps2: Vector3::from(last.accel_mps2),
+                };
+                propagate(&mut self.state, &mut self.covariance, &motion, dt_s, &self.noise);
+            }
+            _ => {
+                gap |= self.last_sample.is_some();
+                self.coast_without_imu(dt_s);
+            }
+        }
+        self.state_nanos = Some(stamp_nanos);
+        if gap || self.last_sample.is_none() {
+            self.counters.imu_gaps += 1;
+            if self.last_sample.is_some() {
+                tracing::warn!(
+                    robot = %self.robot,
+                    scan,
+                    "lio: gap in the IMU stream; crossed at constant velocity"
+                );
+            }
+        }
+    }
+
+    /// Without IMU data: the motion of the last two scans repeated.
+    fn coast_without_imu(&mut self, dt_s: f64) {
+        if let (Some((t1, p1)), Some((t0, p0))) =
+            (self.last_world_from_sensor, self.previous_world_from_sensor)
+        {
+            let interval_s = (t1 - t0) as f64 * 1e-9;
+            if interval_s > 0.0 {
+                let sensor_from_imu = self.imu_from_sensor().inverse();
+                let (w0, w1) = (p0 * sensor_from_imu, p1 * sensor_from_imu);
+                self.state.velocity = (w1.translation.vector - w0.translation.vector) / interval_s;
+                let omega = (w0.rotation.inverse() * w1.rotation).scaled_axis() / interval_s;
+                coast(
+                    &mut self.state,
+                    &mut self.covariance,
+                    &omega,
+                    dt_s,
+                    COAST_ACCEL_SIGMA_MPS2,
+                    COAST_GYRO_SIGMA_RADPS,
+                );
+                return;
+            }
+        }
+        coast(
+            &mut self.state,
+            &mut self.covariance,
+            &Vector3::zeros(),
+            dt_s,
+            COAST_ACCEL_SIGMA_MPS2,
+            COAST_GYRO_SIGMA_RADPS,
+        );
+    }
+
+    fn latest_omega(&self) -> Vector3<f64> {
+        self.last_sample.map_or(Vector3::zeros(), |s| {
+            Vector3::from(s.gyro_radps) - self.state.gyro_bias
+        })
+    }
+
+    fn imu_from_sensor(&self) -> Pose {
+        self.imu_from_sensor.unwrap_or_else(Pose::identity)
+    }
+
+    /// The sensor's motion from the stamp to `offset_s` later, as the filter predicts it:
+    /// `sensor(t) ← sensor(t + τ)`.
+    fn sweep_motion(&self, offset_s: f64) -> Pose {
+        let imu_from_sensor = self.imu_from_sensor();
+        let (omega, accel) = match self.last_sample.filter(|_| self.initialised) {
+            Some(sample) => (
+                Vector3::from(sample.gyro_radps) - self.state.gyro_bias,
+                Vector3::from(sample.accel_mps2) - self.state.accel_bias,
+            ),
+            None => (
+                self.cv_omega(),
+                self.state.rotation.inverse() * (-self.state.gravity),
+            ),
+        };
+        // In the IMU frame at the stamp: rotation Exp(ωτ), translation Rᵀ(vτ + ½(Ra + g)τ²).
+        let rotation_world = self.state.rotation;
+        let accel_world = rotation_world * accel + self.state.gravity;
+        let translation = rotation_world.inverse()
+            * (self.state.velocity * offset_s + 0.5 * accel_world * offset_s * offset_s);
+        let imu_motion = Pose::from_parts(
+            translation.into(),
+            UnitQuaternion::from_scaled_axis(omega * offset_s),
+        );
+        imu_from_sensor.inverse() * imu_motion * imu_from_sensor
+    }
+
+    /// The angular rate of the constant-velocity model, in the IMU frame.
+    fn cv_omega(&self) -> Vector3<f64> {
+        match (self.last_world_from_sensor, self.previous_world_from_sensor) {
+            (Some((t1, p1)), Some((t0, p0))) if t1 > t0 => {
+                let sensor_from_imu = self.imu_from_sensor().inverse();
+                let (w0, w1) = (p0 * sensor_from_imu, p1 * sensor_from_imu);
+                (w0.rotation.inverse() * w1.rotation).scaled_axis() / ((t1 - t0) as f64 * 1e-9)
+            }
+            _ => Vector3::zeros(),
+        }
+    }
+
+    /// Finite points within the range band, moved to the sensor frame at the stamp.
+    fn deskewed(&self, points: &[RawPoint]) -> Vec<Point> {
+        let (min_sq, max_sq) = (self.config.min_range_m.powi(2), self.config.max_range_m.powi(2));
+        let timed = points
+            .iter()
+            .any(|p| p.time_offset_s != 0.0 && p.time_offset_s.is_finite());
+        // Motions are tabulated every millisecond of the sweep rather than per point.
+        let step_s = 1e-3;
+        let (lo, hi) = points
+            .iter()
+            .filter(|p| p.is_finite())
+            .fold((0.0f64, 0.0f64), |(lo, hi), p| {
+                let t = f64::from(p.time_offset_s);
+                (lo.min(t), hi.max(t))
+            });
+        let first = (lo / step_s).floor() as i64;
+        let last = (hi / step_s).ceil() as i64;
+        let table: Vec<Pose> = if timed && last - first < 10_000 {
+            (first..=last)
+                .map(|i| self.sweep_motion(i as f64 * step_s))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        points
+            .iter()
+            .filter(|p| p.is_finite())
+            .filter_map(|p| {
+                let position = Point3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z));
+                let range_sq = position.coords.norm_squared();
+                if !(range_sq > min_sq && range_sq < max_sq) {
+                    return None;
+                }
+                let moved = if table.is_empty() {
+                    position
+                } else {
+                    let index = ((f64::from(p.time_offset_s) / step_s).round() as i64 - first)
+                        .clamp(0, table.len() as i64 - 1) as usize;
+                    table[index] * position
+                };
+                Some(Point::with_intensity(
+                    moved.x as f32,
+                    moved.y as f32,
+                    moved.z as f32,
+                    p.intensity,
+                ))
+            })
+            .collect()
+    }
+
+    fn run_update(&self, points: &[Vector3<f64>]) -> Option<UpdateOutcome> {
+        let settings = UpdateSettings {
+            point_variance_m2: self.config.point_variance_m2,
+            plane_neighbours: self.config.plane_neighbours,
+            max_plane_distance_m: self.config.max_plane_distance_m,
+            max_iterations: self.config.max_iterations,
+            degeneracy_ratio: self.config.degeneracy_ratio,
+        };
+        let imu_from_sensor = self.imu_from_sensor();
+        let run = || {
+            iterated_update(
+                &self.state,
+                &self.covariance,
+                &imu_from_sensor,
+                points,
+                &self.map,
+                &settings,
+            )
+        };
+        match &self.pool {
+            Some(pool) => pool.install(run),
+            None => run(),
+        }
+    }
+}
+
+fn positions(points: &[Point]) -> Vec<Vector3<f64>> {
+    points
+        .iter()
+        .map(|p| Vector3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)))
+        .collect()
+}
+
+impl Odometry for LioOdometry {
+    fn register(&mut self, scan: &Scan) -> PluginResult<OdometryUpdate> {
+        self.check_stamp(scan)?;
+        if self.imu_from_sensor.is_none() {
+            self.imu_from_sensor = scan.imu_from_sensor;
+        }
+        let imu_from_sensor = self.imu_from_sensor();
+        let first = self.state_nanos.is_none();
+        let finite = scan.points.iter().filter(|p| p.is_finite()).count();
+        if first {
+            if finite < MIN_SCAN_POINTS {
+                return Err(self.too_few_points(scan, finite, "finite points"));
+            }
+            // The world frame is this scan's sensor frame.
+            let world_from_imu = imu_from_sensor.inverse();
+            self.state.rotation = world_from_imu.rotation;
+            self.state.position = world_from_imu.translation.vector;
+            self.state_nanos = Some(scan.stamp_nanos);
+        }
+        let has_imu = !scan.imu.is_empty() || self.initialised;
+        if !has_imu && finite < MIN_SCAN_POINTS {
+            // Without IMU nothing is learnt from a scan without points: refuse it untouched.
+            return Err(self.too_few_points(scan, finite, "finite points"));
+        }
+        let samples = self.usable_samples(scan);
+        if !self.initialised && !samples.is_empty() {
+            self.initialise(&samples, &imu_from_sensor);
+            // Standing still: only the time moves on.
+            self.last_sample = samples.last().copied();
+            self.state_nanos = Some(scan.stamp_nanos);
+        } else if self.initialised {
+            // The IMU samples are used even when the scan is refused below: the motion they measured
+            // happened, and the next scan is predicted from it.
+            self.predict(&samples, scan.stamp_nanos, scan.sequence);
+        } else if !first {
+            // No IMU at all: a LiDAR-only filter on the constant-velocity model.
+            let dt_s = self
+                .state_nanos
+                .map_or(0.0, |t| scan.stamp_nanos.saturating_sub(t) as f64 * 1e-9);
+            self.coast_without_imu(dt_s);
+            self.state_nanos = Some(scan.stamp_nanos);
+            self.counters.imu_gaps += 1;
+            if self.counters.imu_gaps == 1 {
+                tracing::warn!(robot = %self.robot, "lio: the source gives no IMU samples; LiDAR-only with a constant-velocity model");
+            }
+        }
+        if finite < MIN_SCAN_POINTS {
+            return Err(self.too_few_points(scan, finite, "finite points"));
+        }
+        let deskewed = self.deskewed(&scan.points);
+        if deskewed.len() < MIN_SCAN_POINTS {
+            let band = format!(
+                "points between {} m and {} m",
+                self.config.min_range_m, self.config.max_range_m
+            );
+            return Err(self.too_few_points(scan, deskewed.len(), &band));
+        }
+        let filtered = voxel_downsample(&deskewed, self.config.map_voxel_m as f32);
+        let points = positions(&filtered);
+        if !self.map.is_empty() {
+            match self.run_update(&points) {
+                Some(outcome) => {
+                    if outcome.degenerate {
+                        self.counters.degenerate_scans += 1;
+                        if self.counters.degenerate_scans.is_power_of_two() {
+                            tracing::warn!(
+                                robot = %self.robot,
+                                scan = scan.sequence,
+                                degenerate_scans = self.counters.degenerate_scans,
+                                eigenvalues = ?outcome.information_eigenvalues,
+                                "lio: the scan's planes leave a direction unconstrained; the IMU carries it"
+                            );
+                        }
+                    }
+                    self.state = outcome.state;
+                    self.covariance = outcome.covariance;
+                    self.last_update = Some(outcome);
+                }
+                None => {
+                    self.counters.unconstrained_scans += 1;
+                    tracing::warn!(robot = %self.robot, scan = scan.sequence, "lio: no point found a plane; keeping the prediction");
+                }
+            }
+        }
+        if !self.state.is_finite() {
+            return Err(PluginError::failed(
+                "lio",
+                format!("scan {} of {}: the filter diverged", scan.sequence, scan.robot),
+            ));
+        }
+        // Symmetrise: rounding in `F P Fᵀ` and the inverse slowly breaks it.
+        self.covariance = 0.5 * (self.covariance + self.covariance.transpose());
+
+        let world_from_sensor = self.state.world_from_imu() * imu_from_sensor;
+        let previous_from_current = self
+            .last_world_from_sensor
+            .map_or(Pose::identity(), |(_, previous)| {
+                previous.inverse() * world_from_sensor
+            });
+        let world_points: Vec<Vector3<f64>> = points
+            .iter()
+            .map(|p| (world_from_sensor * Point3::from(*p)).coords)
+            .collect();
+        self.map.add(&world_points);
+        self.map
+            .prune(&world_from_sensor.translation.vector, self.config.max_range_m);
+        self.previous_world_from_sensor = self.last_world_from_sensor;
+        self.last_world_from_sensor = Some((scan.stamp_nanos, world_from_sensor));
+        self.counters.scans += 1;
+
+        let keyframe = self
+            .trigger
+            .check(scan.stamp_nanos, &world_from_sensor)
+            .map(|index| Keyframe {
+                id: KeyframeId {
+                    robot: self.robot,
+                    index,
+                },
+                stamp_nanos: scan.stamp_nanos,
+                world_from_sensor,
+                cloud: Cloud::new(voxel_downsample(&deskewed, self.config.keyframe_voxel_m as f32)),
+            });
+        Ok(OdometryUpdate {
+            stamp_nanos: scan.stamp_nanos,
+            world_from_sensor,
+            previous_from_current,
+            keyframe,
+        })
+    }
+}
