@@ -160,7 +160,7 @@ fn bench(profile: &str, args: &[String]) -> Result<()> {
     // Benchmarks measure the Python peers (rosbags, kiss-icp, ...) in the same run.
     command.env(
         xtask::python::PYTHON_VAR,
-        xtask::python::ensure_python(&xtask::workspace_root())?,
+        xtask::python::ensure_bench_python(&xtask::workspace_root())?,
     );
     let parameters = xtask::workspace_root()
         .join("configs/bench")

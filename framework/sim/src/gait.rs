@@ -85,7 +85,11 @@ mod tests {
     #[test]
     fn carriers_stand_still_when_stopped_and_the_fast_turn_peaks_above_120_deg_per_s() {
         for profile in [Profile::Legged, Profile::Handheld, Profile::FastTurn] {
-            assert_eq!(body_offset(profile, 1.234, 0.0), BodyOffset::default(), "{profile:?}");
+            assert_eq!(
+                body_offset(profile, 1.234, 0.0),
+                BodyOffset::default(),
+                "{profile:?}"
+            );
         }
         let dt = 1e-4;
         let peak_deg_per_s = (0..20_000)
@@ -98,8 +102,14 @@ mod tests {
             .fold(0.0, f64::max);
         assert!(peak_deg_per_s >= 120.0, "{peak_deg_per_s}");
         // The legged body bounces and rolls by the stated amounts.
-        let legged: Vec<BodyOffset> = (0..2000).map(|i| body_offset(Profile::Legged, i as f64 * 1e-3, 1.0)).collect();
-        let max_roll = legged.iter().map(|o| o.roll_rad.abs()).fold(0.0, f64::max).to_degrees();
+        let legged: Vec<BodyOffset> = (0..2000)
+            .map(|i| body_offset(Profile::Legged, i as f64 * 1e-3, 1.0))
+            .collect();
+        let max_roll = legged
+            .iter()
+            .map(|o| o.roll_rad.abs())
+            .fold(0.0, f64::max)
+            .to_degrees();
         assert!((max_roll - 5.0).abs() < 0.1, "{max_roll}");
     }
 }

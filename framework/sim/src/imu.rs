@@ -4,9 +4,9 @@
 //! estimation", 2005). Default densities are those of a mid-grade MEMS unit (ADIS16448 class).
 
 use nalgebra::{UnitQuaternion, Vector3};
-use skid_core::Pose;
 use serde::{Deserialize, Serialize};
 use skid_core::ImuSample;
+use skid_core::Pose;
 
 use crate::motion::GRAVITY_MPS2;
 use crate::rng::Rng;
@@ -123,7 +123,11 @@ impl ImuSimulator {
 
     /// The IMU frame's attitude, world acceleration and body angular rate at `t_s`: the sensor's, moved
     /// through the mounting (the lever arm adds `R̈_WS · t_SI`, taken by a central difference).
-    fn imu_motion(&self, trajectory: &Trajectory, t_s: f64) -> (UnitQuaternion<f64>, Vector3<f64>, Vector3<f64>) {
+    fn imu_motion(
+        &self,
+        trajectory: &Trajectory,
+        t_s: f64,
+    ) -> (UnitQuaternion<f64>, Vector3<f64>, Vector3<f64>) {
         let sensor = trajectory.pose_at(t_s);
         let (_, sensor_acceleration) = trajectory.velocity_acceleration_at(t_s);
         let sensor_rate = trajectory.angular_velocity_at(t_s);
@@ -174,11 +178,22 @@ mod tests {
         }
         assert!((middle.gyro_radps[2] - rate).abs() < 1e-6);
         // Mounted upside down (rolled 180°): the yaw rate and gravity change sign in its frame.
-        let flipped = Pose::from_parts(Translation3::identity(), UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0));
+        let flipped = Pose::from_parts(
+            Translation3::identity(),
+            UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0),
+        );
         let mut imu = ImuSimulator::new(None, 1).mounted(flipped, 0.0);
         let sample = imu.samples_until(&spinning(rate), 2_000_000_000)[200];
-        assert!((sample.gyro_radps[2] + rate).abs() < 1e-6, "{:?}", sample.gyro_radps);
-        assert!((sample.accel_mps2[2] + GRAVITY_MPS2).abs() < 1e-6, "{:?}", sample.accel_mps2);
+        assert!(
+            (sample.gyro_radps[2] + rate).abs() < 1e-6,
+            "{:?}",
+            sample.gyro_radps
+        );
+        assert!(
+            (sample.accel_mps2[2] + GRAVITY_MPS2).abs() < 1e-6,
+            "{:?}",
+            sample.accel_mps2
+        );
     }
 
     #[test]
@@ -190,7 +205,12 @@ mod tests {
         let b = ahead.samples_until(&trajectory, 3_000_000_000);
         // The sample stamped 50 ms later on the offset clock measured the same instant.
         for (x, y) in a[100].accel_mps2.iter().zip(&b[110].accel_mps2) {
-            assert!((x - y).abs() < 1e-9, "{:?} {:?}", a[100].accel_mps2, b[110].accel_mps2);
+            assert!(
+                (x - y).abs() < 1e-9,
+                "{:?} {:?}",
+                a[100].accel_mps2,
+                b[110].accel_mps2
+            );
         }
         assert_eq!(b[110].stamp_nanos, 550_000_000);
     }

@@ -217,7 +217,11 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
                     ((b - a) / (2.0 * control_dt) / GRAVITY_MPS2).atan()
                 })
                 .collect();
-            (z, smooth_scalar(&bank, 3 * span / 2), smooth_scalar(&tilt, 3 * span / 2))
+            (
+                z,
+                smooth_scalar(&bank, 3 * span / 2),
+                smooth_scalar(&tilt, 3 * span / 2),
+            )
         }
     };
     let controls = (0..count)

@@ -159,7 +159,11 @@ impl SimConfig {
         let [x, y, z, roll, pitch, yaw] = self.imu_mount;
         skid_core::Pose::from_parts(
             nalgebra::Translation3::new(x, y, z),
-            nalgebra::UnitQuaternion::from_euler_angles(roll.to_radians(), pitch.to_radians(), yaw.to_radians()),
+            nalgebra::UnitQuaternion::from_euler_angles(
+                roll.to_radians(),
+                pitch.to_radians(),
+                yaw.to_radians(),
+            ),
         )
     }
 

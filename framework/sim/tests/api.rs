@@ -101,8 +101,7 @@ fn the_plugin_is_registered_and_checks_its_parameters() {
     let mut registry = Registry::new();
     skid_sim::register(&mut registry).unwrap();
     assert!(registry.source.get("sim").is_ok());
-    let params =
-        Params::from_toml_str("world = \"urban\"\nsensor = \"os1-32\"\nframes = 2").unwrap();
+    let params = Params::from_toml_str("world = \"urban\"\nsensor = \"os1-32\"\nframes = 2").unwrap();
     let context = PluginContext {
         robot: RobotId(1),
         fleet_size: 2,

@@ -105,7 +105,8 @@ impl KissIcpConfig {
 
 impl skid_core::PluginParams for KissIcpConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
-        self.validate().map_err(skid_core::ParamError::from_plugin_error)?;
+        self.validate()
+            .map_err(skid_core::ParamError::from_plugin_error)?;
         self.keyframe.check()
     }
 }

@@ -32,8 +32,8 @@ fn sim_source_conforms_in_every_world() {
 #[test]
 fn robots_of_a_fleet_start_in_different_places() {
     let registry = registry();
-    let params = Params::from_toml_str("world = \"urban\"\nsensor = \"avia\"\nframes = 1")
-        .expect("valid TOML");
+    let params =
+        Params::from_toml_str("world = \"urban\"\nsensor = \"avia\"\nframes = 1").expect("valid TOML");
     let start = |robot: u32| {
         let context = PluginContext {
             robot: RobotId(robot),

@@ -292,8 +292,40 @@ pub fn raw_points(cloud: &PointCloud2<'_>, layout: &CloudLayout) -> DecodedPoint
     }
 }
 
-/// The conversion, compiled once per byte order so the per-point reads carry no byte-order branch.
+/// The conversion, compiled once per byte order, and once more for the common `float32` coordinates,
+/// so the per-point reads of x, y and z carry no byte-order or type branch.
 fn convert<const BIG_ENDIAN: bool>(cloud: &PointCloud2<'_>, layout: &CloudLayout) -> DecodedPoints {
+    let f32_coordinates = [layout.x, layout.y, layout.z]
+        .iter()
+        .all(|slot| slot.datatype == datatype::FLOAT32);
+    if f32_coordinates {
+        convert_with::<BIG_ENDIAN, true>(cloud, layout)
+    } else {
+        convert_with::<BIG_ENDIAN, false>(cloud, layout)
+    }
+}
+
+/// One coordinate: read directly as `f32` when `F32` (the slot's type is known), else through the
+/// slot's general reader.
+#[inline(always)]
+fn coordinate<const BIG_ENDIAN: bool, const F32: bool>(slot: &FieldSlot, point: &[u8]) -> f32 {
+    if F32 {
+        let mut raw = [0u8; 4];
+        raw.copy_from_slice(&point[slot.offset..slot.offset + 4]);
+        if BIG_ENDIAN {
+            f32::from_be_bytes(raw)
+        } else {
+            f32::from_le_bytes(raw)
+        }
+    } else {
+        slot.read(point, BIG_ENDIAN) as f32
+    }
+}
+
+fn convert_with<const BIG_ENDIAN: bool, const F32: bool>(
+    cloud: &PointCloud2<'_>,
+    layout: &CloudLayout,
+) -> DecodedPoints {
     let step = cloud.point_step as usize;
     let width = cloud.width as usize;
     let stamp_s = cloud.header.stamp_nanos as f64 * 1e-9;
@@ -313,9 +345,9 @@ fn convert<const BIG_ENDIAN: bool>(cloud: &PointCloud2<'_>, layout: &CloudLayout
         .map(|(_, slot)| (*slot, if slot.is_float() { 1.0 } else { 1e-9 }));
     for row in cloud.data.chunks_exact(cloud.row_step.max(1) as usize) {
         for point in row[..width * step].chunks_exact(step) {
-            let x = layout.x.read(point, BIG_ENDIAN) as f32;
-            let y = layout.y.read(point, BIG_ENDIAN) as f32;
-            let z = layout.z.read(point, BIG_ENDIAN) as f32;
+            let x = coordinate::<BIG_ENDIAN, F32>(&layout.x, point);
+            let y = coordinate::<BIG_ENDIAN, F32>(&layout.y, point);
+            let z = coordinate::<BIG_ENDIAN, F32>(&layout.z, point);
             if !(x.is_finite() && y.is_finite() && z.is_finite()) {
                 decoded.dropped_non_finite += 1;
                 continue;

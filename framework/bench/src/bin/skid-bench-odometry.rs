@@ -1,111 +1,235 @@
-//! `cargo xtask bench odometry`: the `kiss_icp` odometry (KISS-ICP, Vizzo et al., RA-L 2023) with its
-//! reference parameters on (a) the 16 real KITTI 00 frames of the shared data and (b) a simulated 64-beam
-//! (HDL-64E) sequence of `--frames` scans in each world of `skid-sim`.
+//! `cargo xtask bench odometry`: the `lio` odometry (FAST-LIO2-style filter) beside `kiss_icp` (KISS-ICP,
+//! Vizzo et al., RA-L 2023) and the reference KISS-ICP (Python package `kiss-icp`, C++ core, run by
+//! `framework/bench/python/kiss_icp_run.py` with `$SKID_PYTHON` in the same run) on the same scans:
+//! the 16 real KITTI 00 frames of the shared data (no IMU: `lio` runs LiDAR-only there), and simulated
+//! sequences of `--frames` scans with the simulator's noisy 200 Hz IMU — planetary, cave and urban
+//! ground robots at 2 m/s, a trotting quadruped, a base swinging its heading at up to 132°/s and a
+//! handheld sensor.
 //!
-//! Per row: milliseconds per frame (median, p90; `register` only, scan generation excluded), frames per
-//! second, the process's peak resident memory so far, ATE after SE(3) alignment and end-point drift as a
-//! percentage of the path length. For comparison, the reference KISS-ICP (C++ core) took about 100-136 ms
-//! per frame on ~113k-point 64-beam scans on a busy single core of this kind of machine.
+//! Per row: milliseconds per frame (median, p90; `register` only, scan generation excluded), ATE after
+//! SE(3) alignment and end-point drift as a percentage of the path length.
 
-use anyhow::{Context, Result};
+use std::path::Path;
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
 use clap::Parser;
 use serde::Serialize;
 use skid_bench::{BenchArgs, Report, Timing};
 use skid_core::slots::Odometry;
-use skid_core::{PluginContext, RawPoint, Scan};
+use skid_core::{PluginContext, Pose, RawPoint, Scan};
 use skid_io::{CloudReadOptions, kitti, trajectory};
 use skid_odometry_kiss::{KissIcpConfig, KissIcpOdometry, trajectory_errors};
-use skid_sim::{SimConfig, SimSource};
+use skid_odometry_lio::{LioConfig, LioOdometry};
+use skid_sim::{Profile, SimConfig, SimSource};
 
 #[derive(Parser, Debug)]
 struct Args {
     #[command(flatten)]
     common: BenchArgs,
-    /// Threads of the odometry's pool.
+    /// Threads of each odometry's pool.
     #[arg(long, default_value_t = 1)]
     threads: usize,
-    /// Simulated scans per world (at least 500 for the reported figures).
-    #[arg(long, default_value_t = 500)]
+    /// Simulated scans per sequence.
+    #[arg(long, default_value_t = 300)]
     frames: u32,
-    /// Simulated worlds, comma separated.
-    #[arg(long, value_delimiter = ',', default_value = "urban,planetary,cave")]
-    worlds: Vec<String>,
-    /// Cruise speed of the simulated robot.
-    #[arg(long, default_value_t = 2.0)]
+    /// Only the sequences whose name contains one of these (comma separated); all by default.
+    #[arg(long, value_delimiter = ',')]
+    only: Vec<String>,
+}
+
+/// One simulated sequence.
+struct Sequence {
+    name: &'static str,
+    world: &'static str,
+    sensor: &'static str,
+    profile: Profile,
     speed_mps: f64,
 }
+
+const SEQUENCES: [Sequence; 6] = [
+    Sequence {
+        name: "planetary 2 m/s",
+        world: "planetary",
+        sensor: "os1-64",
+        profile: Profile::Ground,
+        speed_mps: 2.0,
+    },
+    Sequence {
+        name: "cave 2 m/s",
+        world: "cave",
+        sensor: "os1-64",
+        profile: Profile::Ground,
+        speed_mps: 2.0,
+    },
+    Sequence {
+        name: "urban 2 m/s",
+        world: "urban",
+        sensor: "os1-64",
+        profile: Profile::Ground,
+        speed_mps: 2.0,
+    },
+    Sequence {
+        name: "legged gait (planetary)",
+        world: "planetary",
+        sensor: "os1-32",
+        profile: Profile::Legged,
+        speed_mps: 1.0,
+    },
+    Sequence {
+        name: "fast turns (urban)",
+        world: "urban",
+        sensor: "os1-64",
+        profile: Profile::FastTurn,
+        speed_mps: 1.5,
+    },
+    Sequence {
+        name: "handheld (cave)",
+        world: "cave",
+        sensor: "os1-32",
+        profile: Profile::Handheld,
+        speed_mps: 1.4,
+    },
+];
 
 #[derive(Serialize)]
 struct Row {
     sequence: String,
+    odometry: String,
     frames: usize,
-    points_per_scan: usize,
-    threads: usize,
     median_ms: f64,
     p90_ms: f64,
-    fps: f64,
-    peak_rss_mb: f64,
     path_m: f64,
     ate_m: f64,
     drift_percent: f64,
 }
 
-/// Peak resident set size of this process so far (Linux `VmHWM`), in MB; 0 where unavailable.
-fn peak_rss_mb() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|line| line.strip_prefix("VmHWM:"))
-        .and_then(|rest| rest.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .map_or(0.0, |kb| kb / 1024.0)
+/// One odometry's estimate and timing over a sequence.
+struct Track {
+    name: &'static str,
+    odometry: Box<dyn Odometry>,
+    estimate: Vec<Pose>,
+    times_ms: Vec<f64>,
 }
 
-/// Runs a fresh odometry over `scans` (streamed: a 500-scan 64-beam sequence would not fit in memory)
-/// and summarises it against their ground truth.
-fn run(name: &str, scans: impl Iterator<Item = Scan>, threads: usize) -> Result<Row> {
-    let context = PluginContext {
-        threads,
-        ..PluginContext::default()
-    };
-    let mut odometry = KissIcpOdometry::new(KissIcpConfig::default(), &context)?;
-    let (mut estimate, mut truth, mut times_ms, mut points) = (Vec::new(), Vec::new(), Vec::new(), 0usize);
-    for scan in scans {
-        let started = std::time::Instant::now();
-        let update = odometry
-            .register(&scan)
-            .with_context(|| format!("{name}: scan {}", scan.sequence))?;
-        times_ms.push(started.elapsed().as_secs_f64() * 1e3);
-        estimate.push(update.world_from_sensor);
-        truth.push(
-            scan.ground_truth_world_from_sensor
-                .context("a scan without ground truth")?,
+fn row(sequence: &str, odometry: &str, estimate: &[Pose], truth: &[Pose], times_ms: &[f64]) -> Result<Row> {
+    if estimate.len() != truth.len() {
+        bail!(
+            "{sequence}/{odometry}: {} poses for {} scans",
+            estimate.len(),
+            truth.len()
         );
-        points += scan.points.len();
     }
-    let timing = Timing::from_ms(&times_ms);
-    let errors = trajectory_errors(&estimate, &truth).context("trajectory errors")?;
+    let timing = Timing::from_ms(times_ms);
+    let errors = trajectory_errors(estimate, truth).context("trajectory errors")?;
     let row = Row {
-        sequence: name.to_owned(),
+        sequence: sequence.to_owned(),
+        odometry: odometry.to_owned(),
         frames: estimate.len(),
-        points_per_scan: points / estimate.len().max(1),
-        threads,
         median_ms: timing.median_ms,
         p90_ms: timing.p90_ms,
-        fps: if timing.mean_ms > 0.0 {
-            1e3 / timing.mean_ms
-        } else {
-            0.0
-        },
-        peak_rss_mb: peak_rss_mb(),
         path_m: errors.path_length_m,
         ate_m: errors.ate_rmse_m,
         drift_percent: errors.drift_percent,
     };
     eprintln!(
-        "{name}: {:.1} ms median, {:.1} ms p90, ATE {:.3} m, drift {:.2}% over {:.1} m",
-        row.median_ms, row.p90_ms, row.ate_m, row.drift_percent, row.path_m
+        "{sequence} / {odometry}: {:.1} ms median, ATE {:.3} m, drift {:.2}% over {:.1} m",
+        row.median_ms, row.ate_m, row.drift_percent, row.path_m
     );
     Ok(row)
+}
+
+/// Writes a scan for the Python peer: float32 x, y, z, time offset per point.
+fn write_xyzt(path: &Path, points: &[RawPoint]) -> Result<()> {
+    let mut bytes = Vec::with_capacity(points.len() * 16);
+    for point in points.iter().filter(|p| p.is_finite()) {
+        for value in [point.x, point.y, point.z, point.time_offset_s] {
+            bytes.extend_from_slice(&value.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+/// The reference KISS-ICP on the scans in `folder`, when `$SKID_PYTHON` is set.
+fn python_kiss_icp(folder: &Path, threads: usize) -> Result<Option<(Vec<Pose>, Vec<f64>)>> {
+    let Some(python) = std::env::var_os("SKID_PYTHON") else {
+        eprintln!(
+            "bench odometry: SKID_PYTHON is not set (cargo xtask bench sets it); the kiss-icp peer is skipped"
+        );
+        return Ok(None);
+    };
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/kiss_icp_run.py");
+    let output = Command::new(python)
+        .arg(script)
+        .arg(folder)
+        .arg("100")
+        .arg(threads.to_string())
+        .output()
+        .context("running kiss_icp_run.py")?;
+    if !output.status.success() {
+        bail!(
+            "kiss_icp_run.py failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    let result: serde_json::Value =
+        serde_json::from_slice(&output.stdout).context("kiss_icp_run.py output")?;
+    let poses = result["poses"]
+        .as_array()
+        .context("poses")?
+        .iter()
+        .map(|row| {
+            let v: Vec<f64> = row
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter_map(|x| x.as_f64())
+                .collect();
+            let matrix = nalgebra::Matrix4::from_row_slice(&v);
+            let rotation = nalgebra::Rotation3::from_matrix(&matrix.fixed_view::<3, 3>(0, 0).into_owned());
+            Pose::from_parts(
+                nalgebra::Translation3::new(matrix[(0, 3)], matrix[(1, 3)], matrix[(2, 3)]),
+                nalgebra::UnitQuaternion::from_rotation_matrix(&rotation),
+            )
+        })
+        .collect();
+    let times = result["ms"]
+        .as_array()
+        .context("ms")?
+        .iter()
+        .filter_map(|x| x.as_f64())
+        .collect();
+    Ok(Some((poses, times)))
+}
+
+/// Runs every track over `scans`, writing them for the peer into `peer_folder`.
+fn run_tracks(
+    sequence: &str,
+    scans: impl Iterator<Item = Scan>,
+    tracks: &mut [Track],
+    peer_folder: &Path,
+) -> Result<Vec<Pose>> {
+    let mut truth = Vec::new();
+    for scan in scans {
+        for track in tracks.iter_mut() {
+            let started = std::time::Instant::now();
+            let update = track
+                .odometry
+                .register(&scan)
+                .with_context(|| format!("{sequence} / {}: scan {}", track.name, scan.sequence))?;
+            track.times_ms.push(started.elapsed().as_secs_f64() * 1e3);
+            track.estimate.push(update.world_from_sensor);
+        }
+        write_xyzt(
+            &peer_folder.join(format!("{:06}.xyzt", scan.sequence)),
+            &scan.points,
+        )?;
+        truth.push(
+            scan.ground_truth_world_from_sensor
+                .context("a scan without ground truth")?,
+        );
+    }
+    Ok(truth)
 }
 
 fn kitti_scans() -> Result<Vec<Scan>> {
@@ -136,32 +260,68 @@ fn kitti_scans() -> Result<Vec<Scan>> {
 fn main() -> Result<()> {
     let args = Args::parse();
     let mut report = Report::new("odometry");
-    let scans = kitti_scans().context("reading the KITTI frames (set SKID_DATA_DIR)")?;
-    report.push(&run(
-        "kitti-00 frames 0-15 (real)",
-        scans.into_iter(),
-        args.threads,
-    )?)?;
-    for world in &args.worlds {
+    let context = PluginContext {
+        threads: args.threads,
+        ..PluginContext::default()
+    };
+    let selected = |name: &str| args.only.is_empty() || args.only.iter().any(|o| name.contains(o.as_str()));
+    let peer_root = args.common.out.join("peer-scans");
+    let mut inputs: Vec<(String, Box<dyn Iterator<Item = Scan>>)> = Vec::new();
+    if selected("kitti") {
+        let scans = kitti_scans().context("reading the KITTI frames (set SKID_DATA_DIR)")?;
+        inputs.push((
+            "kitti-00 frames 0-15 (real, no IMU)".to_owned(),
+            Box::new(scans.into_iter()),
+        ));
+    }
+    for sequence in SEQUENCES.iter().filter(|s| selected(s.name)) {
         let config = SimConfig {
-            world: world.clone(),
-            sensor: "hdl64e".to_owned(),
+            world: sequence.world.to_owned(),
+            sensor: sequence.sensor.to_owned(),
+            profile: sequence.profile,
+            speed_mps: sequence.speed_mps,
             robots: 1,
             frames: args.frames,
-            speed_mps: args.speed_mps,
-            imu: false,
             ..SimConfig::default()
         };
-        let source = SimSource::new(
-            &config,
-            0,
-            std::thread::available_parallelism().map_or(1, |n| n.get()),
-        )?;
-        report.push(&run(
-            &format!("sim {world} hdl64e {} m/s", args.speed_mps),
-            source,
-            args.threads,
-        )?)?;
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        inputs.push((
+            format!("sim {}", sequence.name),
+            Box::new(SimSource::new(&config, 0, threads)?),
+        ));
+    }
+    for (name, scans) in inputs {
+        let folder = peer_root.join(name.replace([' ', '/'], "_"));
+        std::fs::create_dir_all(&folder).with_context(|| format!("creating {}", folder.display()))?;
+        let mut tracks = vec![
+            Track {
+                name: "lio",
+                odometry: Box::new(LioOdometry::new(LioConfig::default(), &context)?),
+                estimate: Vec::new(),
+                times_ms: Vec::new(),
+            },
+            Track {
+                name: "kiss_icp",
+                odometry: Box::new(KissIcpOdometry::new(KissIcpConfig::default(), &context)?),
+                estimate: Vec::new(),
+                times_ms: Vec::new(),
+            },
+        ];
+        let truth = run_tracks(&name, scans, &mut tracks, &folder)?;
+        for track in &tracks {
+            report.push(&row(&name, track.name, &track.estimate, &truth, &track.times_ms)?)?;
+        }
+        if let Some((poses, times)) = python_kiss_icp(&folder, args.threads)? {
+            report.push(&row(
+                &name,
+                "kiss-icp (Python, reference)",
+                &poses,
+                &truth,
+                &times,
+            )?)?;
+        }
+        // The raw scans are large (a 64-beam sequence is hundreds of MB): drop them once measured.
+        std::fs::remove_dir_all(&folder).with_context(|| format!("removing {}", folder.display()))?;
     }
     report.write(&args.common.out)
 }
