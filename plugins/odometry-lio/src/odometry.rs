@@ -298,14 +298,7 @@ impl LioOdometry {
                 _ => {
                     gap |= dt_s > self.config.max_imu_gap_s;
                     let omega = self.latest_omega();
-                    coast(
-                        &mut self.state,
-                        &mut self.covariance,
-                        &omega,
-                        dt_s,
-                        COAST_ACCEL_SIGMA_MPS2,
-                        COAST_GYRO_SIGMA_RADPS,
-                    );
+                    self.coast_for(&omega, dt_s);
                 }
             }
             time = sample.stamp_nanos;
@@ -341,34 +334,39 @@ impl LioOdometry {
 
     /// Without IMU data: the motion of the last two scans repeated.
     fn coast_without_imu(&mut self, dt_s: f64) {
-        if let (Some((t1, p1)), Some((t0, p0))) =
-            (self.last_world_from_sensor, self.previous_world_from_sensor)
-        {
-            let interval_s = (t1 - t0) as f64 * 1e-9;
-            if interval_s > 0.0 {
-                let sensor_from_imu = self.imu_from_sensor().inverse();
-                let (w0, w1) = (p0 * sensor_from_imu, p1 * sensor_from_imu);
-                self.state.velocity = (w1.translation.vector - w0.translation.vector) / interval_s;
-                let omega = (w0.rotation.inverse() * w1.rotation).scaled_axis() / interval_s;
-                coast(
-                    &mut self.state,
-                    &mut self.covariance,
-                    &omega,
-                    dt_s,
-                    COAST_ACCEL_SIGMA_MPS2,
-                    COAST_GYRO_SIGMA_RADPS,
-                );
-                return;
+        let omega = match self.cv_motion() {
+            Some((velocity, omega)) => {
+                self.state.velocity = velocity;
+                omega
             }
-        }
+            None => Vector3::zeros(),
+        };
+        self.coast_for(&omega, dt_s);
+    }
+
+    /// Crosses `dt_s` at constant velocity, turning at `omega` (no IMU measurement).
+    fn coast_for(&mut self, omega: &Vector3<f64>, dt_s: f64) {
         coast(
             &mut self.state,
             &mut self.covariance,
-            &Vector3::zeros(),
+            omega,
             dt_s,
             COAST_ACCEL_SIGMA_MPS2,
             COAST_GYRO_SIGMA_RADPS,
         );
+    }
+
+    /// The IMU's velocity (world frame) and angular rate (its own frame) over the last two scans: the
+    /// constant-velocity model.
+    fn cv_motion(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        let ((t1, p1), (t0, p0)) = (self.last_world_from_sensor?, self.previous_world_from_sensor?);
+        let interval_s = t1.checked_sub(t0).filter(|&d| d > 0)? as f64 * 1e-9;
+        let sensor_from_imu = self.imu_from_sensor().inverse();
+        let (w0, w1) = (p0 * sensor_from_imu, p1 * sensor_from_imu);
+        Some((
+            (w1.translation.vector - w0.translation.vector) / interval_s,
+            (w0.rotation.inverse() * w1.rotation).scaled_axis() / interval_s,
+        ))
     }
 
     fn latest_omega(&self) -> Vector3<f64> {
@@ -409,14 +407,7 @@ impl LioOdometry {
 
     /// The angular rate of the constant-velocity model, in the IMU frame.
     fn cv_omega(&self) -> Vector3<f64> {
-        match (self.last_world_from_sensor, self.previous_world_from_sensor) {
-            (Some((t1, p1)), Some((t0, p0))) if t1 > t0 => {
-                let sensor_from_imu = self.imu_from_sensor().inverse();
-                let (w0, w1) = (p0 * sensor_from_imu, p1 * sensor_from_imu);
-                (w0.rotation.inverse() * w1.rotation).scaled_axis() / ((t1 - t0) as f64 * 1e-9)
-            }
-            _ => Vector3::zeros(),
-        }
+        self.cv_motion().map_or(Vector3::zeros(), |(_, omega)| omega)
     }
 
     /// Finite points within the range band, moved to the sensor frame at the stamp.
