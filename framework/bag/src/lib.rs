@@ -11,8 +11,10 @@
 //! [`write`] records bags the other way: ROS 1 bags and ROS 2 MCAP bag folders, for `skid sim export`.
 
 mod bag;
+mod chunk_codec;
 mod connection;
 mod error;
+mod lz4_frame;
 mod mcap_file;
 pub mod msgs;
 mod ros1;

@@ -19,6 +19,7 @@ use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use crate::chunk_codec::{decompress_into, resize_for};
 use crate::connection::{Connection, MessageBytes, MessageReader, RawMessage};
 use crate::error::BagError;
 use crate::wire::Encoding;
@@ -502,50 +503,6 @@ fn split_record(bytes: &[u8]) -> Result<(&[u8], &[u8]), String> {
         .get(4..4 + data_len)
         .ok_or_else(|| format!("record data of {data_len} bytes runs past the end"))?;
     Ok((header, data))
-}
-
-/// Sets a reused buffer's length to `len`, zero-filling only what it grows by.
-fn resize_for(buffer: &mut Vec<u8>, len: usize) {
-    if buffer.len() < len {
-        buffer.resize(len, 0);
-    } else {
-        buffer.truncate(len);
-    }
-}
-
-/// Decompresses a chunk into `out`, checking it yields exactly the announced size (so a lying size
-/// can neither grow memory past it nor hide a truncated chunk).
-fn decompress_into(
-    compression: &str,
-    compressed: &[u8],
-    size: usize,
-    out: &mut Vec<u8>,
-) -> Result<(), String> {
-    match compression {
-        "bz2" => read_exactly(bzip2::read::BzDecoder::new(compressed), size, out, "bz2"),
-        "lz4" => read_exactly(lz4_flex::frame::FrameDecoder::new(compressed), size, out, "lz4"),
-        other => Err(format!(
-            "unknown compression `{other}` (bags use none, bz2 or lz4)"
-        )),
-    }
-}
-
-fn read_exactly(mut reader: impl Read, size: usize, out: &mut Vec<u8>, name: &str) -> Result<(), String> {
-    resize_for(out, size);
-    reader.read_exact(out).map_err(|e| match e.kind() {
-        std::io::ErrorKind::UnexpectedEof => {
-            format!("{name} data decompresses to fewer bytes than the {size} its header says")
-        }
-        _ => format!("{name} data is corrupt: {e}"),
-    })?;
-    let mut extra = [0u8; 1];
-    match reader.read(&mut extra) {
-        Ok(0) => Ok(()),
-        Ok(_) => Err(format!(
-            "{name} data decompresses to more than the {size} bytes its header says"
-        )),
-        Err(e) => Err(format!("{name} data is corrupt after {size} bytes: {e}")),
-    }
 }
 
 impl MessageReader for Ros1Reader {

@@ -7,6 +7,13 @@
 //!
 //! `-v`/`-vv` and `-q` set the log level; `RUST_LOG` overrides both.
 
+/// The allocator of every SKiD process. Scans come and go as buffers of megabytes: glibc's allocator
+/// hands each one back to the kernel when it is freed and page-faults to get it again for the next
+/// scan, while mimalloc keeps the pages for reuse (bag decoding runs 25-45% faster with it; see
+/// `cargo xtask bench io`).
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 mod commands;
 mod logging;
 mod signals;
