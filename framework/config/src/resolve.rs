@@ -7,7 +7,7 @@ use figment::error::Kind;
 use figment::{Figment, Source};
 use skid_core::{Params, Registry, Slot};
 
-use crate::schema::{MAX_ROBOTS, NONE_PLUGIN, RawConfig, RawSlot};
+use crate::schema::{AUTO_PLUGIN, MAX_ROBOTS, NONE_PLUGIN, RawConfig, RawSlot};
 use crate::{ConfigError, DeploySection, LoopsSection, RunSection};
 
 /// One slot after validation: the selected plugin and its complete parameters (defaults filled in).
@@ -61,7 +61,10 @@ impl ResolvedConfig {
         for (slot, resolved) in &self.slots {
             let mut table = toml::Table::new();
             table.insert("plugin".to_owned(), toml::Value::String(resolved.plugin.clone()));
-            if !resolved.is_none() {
+            if resolved.plugin == AUTO_PLUGIN {
+                // The candidates' tables, where a configuration file sets them.
+                table.extend(resolved.params.table().clone());
+            } else if !resolved.is_none() {
                 table.insert(
                     resolved.plugin.clone(),
                     toml::Value::Table(resolved.params.table().clone()),
@@ -192,6 +195,13 @@ fn resolve_slot(
     let mut selected_params = None;
     for (name, value) in &table.tables {
         let key = format!("{slot}.{name}");
+        if name == AUTO_PLUGIN {
+            let message = format!(
+                "`auto` has no parameters of its own: it runs one of the plugins it chooses between with that plugin's table ({})",
+                candidate_keys(&known, slot).join(", ")
+            );
+            return Err(invalid(figment, &key, message));
+        }
         let Some(info) = known.iter().find(|info| &info.name == name) else {
             let message = format!(
                 "`{name}` is not a {slot} plugin; expected `plugin` or a table named after one of: {}",
@@ -229,6 +239,8 @@ fn resolve_slot(
     }
     let params = if selected == NONE_PLUGIN {
         Params::default()
+    } else if selected == AUTO_PLUGIN {
+        auto_params(&known, table)
     } else {
         selected_params.map(Params::new).unwrap_or_else(|| {
             known
@@ -242,6 +254,30 @@ fn resolve_slot(
         plugin: selected.to_owned(),
         params,
     })
+}
+
+/// The `auto` plugin's defaults name its candidates, one table each; the keys `[slot.candidate]` set them.
+fn candidate_keys(known: &[skid_core::PluginInfo], slot: Slot) -> Vec<String> {
+    known
+        .iter()
+        .find(|info| info.name == AUTO_PLUGIN)
+        .map(|info| info.defaults.table().keys().map(|name| format!("{slot}.{name}")).collect())
+        .unwrap_or_default()
+}
+
+/// The `auto` plugin's parameters: each candidate's own table from the file, laid over its defaults.
+fn auto_params(known: &[skid_core::PluginInfo], table: &RawSlot) -> Params {
+    let Some(auto) = known.iter().find(|info| info.name == AUTO_PLUGIN) else {
+        return Params::default();
+    };
+    let mut params = toml::Table::new();
+    for (candidate, defaults) in auto.defaults.table() {
+        let defaults = defaults.as_table().cloned().unwrap_or_default();
+        let given = table.tables.get(candidate).and_then(toml::Value::as_table);
+        let value = given.map_or_else(|| defaults.clone(), |given| merged(&defaults, given));
+        params.insert(candidate.clone(), toml::Value::Table(value));
+    }
+    Params::new(params)
 }
 
 /// `given` laid over `defaults`, recursively for nested tables.

@@ -8,6 +8,10 @@ use serde::{Deserialize, Serialize};
 /// The plugin name that leaves an optional slot empty (every slot but `source`).
 pub const NONE_PLUGIN: &str = "none";
 
+/// The plugin name of a slot's chooser (the odometry's `auto`): its defaults hold one table per plugin it
+/// chooses between, and those tables are set as that plugin's own `[slot.plugin]` table.
+pub const AUTO_PLUGIN: &str = "auto";
+
 /// Most robots a fleet may have.
 pub const MAX_ROBOTS: u32 = 16;
 

@@ -76,6 +76,7 @@ pub(crate) fn plugin_context(config: &ResolvedConfig, robot: RobotId) -> PluginC
         threads: threads.max(1),
         seed: config.run.seed,
         output_dir: Some(crate::run_folder::run_folder(config).path().to_path_buf()),
+        source_provides_imu: false,
     }
 }
 
@@ -94,6 +95,10 @@ pub(crate) fn build_host(
         plugin: "none".into(),
         source: PluginError::InvalidInput("a source is required".into()),
     })?;
+    let context = PluginContext {
+        source_provides_imu: source.provides_imu(),
+        ..context
+    };
     let plugins = Plugins {
         source,
         odometry: build(&registry.odometry, config, &context)?,

@@ -374,6 +374,10 @@ impl Source for SimSource {
         Ok(self.next_sim_scan())
     }
 
+    fn provides_imu(&self) -> bool {
+        self.imu.is_some()
+    }
+
     fn remaining_hint(&self) -> Option<usize> {
         Some((self.scan_count - self.next_sequence) as usize)
     }

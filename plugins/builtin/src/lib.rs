@@ -4,6 +4,9 @@
 
 use skid_core::{PluginError, Registry};
 
+#[cfg(all(feature = "odometry-kiss", feature = "odometry-lio"))]
+pub mod auto_odometry;
+
 /// Registers every built-in plugin enabled at compile time.
 pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     #[cfg(feature = "source-files")]
@@ -18,6 +21,8 @@ pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     skid_odometry_kiss::register(registry)?;
     #[cfg(feature = "odometry-lio")]
     skid_odometry_lio::register(registry)?;
+    #[cfg(all(feature = "odometry-kiss", feature = "odometry-lio"))]
+    auto_odometry::register(registry)?;
     #[cfg(feature = "descriptor-solid")]
     skid_descriptor_solid::register(registry)?;
     #[cfg(feature = "descriptor-scan-context")]

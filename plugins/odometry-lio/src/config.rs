@@ -37,12 +37,15 @@ pub struct LioConfig {
     pub min_range_m: f64,
     /// Points farther than this are dropped, and map voxels farther than this from the robot removed.
     pub max_range_m: f64,
-    /// Seconds of IMU data, with the robot at rest, averaged at the start for gravity and the gyro bias.
+    /// Seconds of IMU data averaged at the start for gravity and the gyro bias (the robot at rest or at
+    /// constant velocity; the LiDAR follows it meanwhile).
     pub init_duration_s: f64,
     /// IMU silence longer than this (seconds) is a gap bridged by the constant-velocity model.
     pub max_imu_gap_s: f64,
     /// A direction is degenerate when its eigenvalue of the point-to-plane information is below this
-    /// fraction of the largest (the filter then leans on the IMU in that direction).
+    /// fraction of the largest of its block (rotation or translation, each with the other marginalised);
+    /// the filter then leans on the IMU in that direction. Measured translation ratios: the planetary
+    /// world's smooth ground 0.01-0.04, the cave 0.08-0.18, the urban world 0.18-0.87, KITTI 00 0.22-0.44.
     pub degeneracy_ratio: f64,
     /// The LiDAR's pose in the IMU frame as `[x, y, z, roll, pitch, yaw]` (metres, degrees), used when
     /// the source gives none (a bag without `/tf_static`); `None` takes the source's, else identity.
@@ -69,7 +72,7 @@ impl Default for LioConfig {
             max_range_m: 100.0,
             init_duration_s: 0.5,
             max_imu_gap_s: 0.05,
-            degeneracy_ratio: 1e-3,
+            degeneracy_ratio: 0.05,
             imu_from_sensor: None,
             keyframe_voxel_m: 0.25,
             keyframe: KeyframePolicy::default(),

@@ -54,6 +54,10 @@ pub struct LioCounters {
     pub unconstrained_scans: u64,
 }
 
+/// Velocity variance (m²/s²) when the initialisation ends with the robot already moving: two scan
+/// registrations 0.1 s apart give the velocity to a few tenths of a metre per second.
+const INITIAL_MOVING_VELOCITY_VARIANCE: f64 = 0.1;
+
 /// The static initialisation's running sums.
 #[derive(Clone, Debug, Default)]
 struct StaticInit {
@@ -262,6 +266,14 @@ impl LioOdometry {
         self.state.gyro_bias = self.init.gyro_sum / count;
         self.state.gravity = world_from_imu.rotation * (-mean_accel);
         self.state.accel_bias = Vector3::zeros();
+        // A robot already moving (a recording that starts mid-drive) keeps the velocity the LiDAR saw,
+        // held loosely: the filter's own velocity is only as good as two scan registrations.
+        if let Some((velocity, _)) = self.cv_motion() {
+            self.state.velocity = velocity;
+            for i in VEL..VEL + 3 {
+                self.covariance[(i, i)] = self.covariance[(i, i)].max(INITIAL_MOVING_VELOCITY_VARIANCE);
+            }
+        }
         self.initialised = true;
         tracing::info!(
             robot = %self.robot,
@@ -519,8 +531,15 @@ impl Odometry for LioOdometry {
         }
         let samples = self.usable_samples(scan);
         if !self.initialised && !samples.is_empty() {
+            // Until gravity is known the IMU cannot be integrated: a robot that starts moving is followed
+            // on the LiDAR's constant-velocity model, and one at rest stays put.
+            if !first {
+                let dt_s = self
+                    .state_nanos
+                    .map_or(0.0, |t| scan.stamp_nanos.saturating_sub(t) as f64 * 1e-9);
+                self.coast_without_imu(dt_s);
+            }
             self.initialise(&samples, &imu_from_sensor);
-            // Standing still: only the time moves on.
             self.last_sample = samples.last().copied();
             self.state_nanos = Some(scan.stamp_nanos);
         } else if self.initialised {

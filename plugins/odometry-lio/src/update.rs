@@ -8,9 +8,11 @@
 //! `(HᵀR⁻¹H + P⁻¹)⁻¹`. A point is used when its plane fits its neighbours within a few centimetres
 //! and, as in FAST-LIO2, `1 − 0.9|z|/√‖p‖ > 0.9`.
 //!
-//! Degeneracy: the eigenvalues of the 6×6 pose block of `HᵀH` say how well the scan's planes constrain
-//! each direction; a direction below `degeneracy_ratio` of the best is reported, and there the prior
-//! (the IMU's prediction) carries the estimate, since the update's information adds almost nothing.
+//! Degeneracy (Zhang, Kaess and Singh, ICRA 2016): the eigenvalues of the pose block of `HᵀH` say how
+//! well the scan's planes constrain each direction. Rotation (rad) and translation (m) are judged apart,
+//! each with the other marginalised out (the Schur complement), since their units differ by the squared
+//! range; a direction below `degeneracy_ratio` of its block's best is reported, and there the prior (the
+//! IMU's prediction) carries the estimate, since the update's information adds almost nothing.
 
 use nalgebra::{Matrix6, SMatrix, Vector3, Vector6};
 use rayon::prelude::*;
@@ -37,7 +39,8 @@ pub struct UpdateOutcome {
     pub iterations: usize,
     /// Points with a plane in the last iteration.
     pub correspondences: usize,
-    /// Eigenvalues of the pose information `HᵀH` (ascending), and whether the smallest is degenerate.
+    /// Eigenvalues of the pose information `HᵀH`, rotation's three then translation's three (each
+    /// ascending, each block with the other marginalised out), and whether a direction is degenerate.
     pub information_eigenvalues: [f64; 6],
     pub degenerate: bool,
 }
@@ -128,21 +131,21 @@ pub fn iterated_update(
         if !estimate.is_finite() {
             return None;
         }
-        let mut eigenvalues: Vec<f64> = information.symmetric_eigenvalues().iter().copied().collect();
-        eigenvalues.sort_by(f64::total_cmp);
-        let degenerate = eigenvalues[5] > 0.0 && eigenvalues[0] < settings.degeneracy_ratio * eigenvalues[5];
+        let (rotation, translation) = marginal_eigenvalues(&information);
+        let weak = |block: &[f64; 3]| block[2] > 0.0 && block[0] < settings.degeneracy_ratio * block[2];
+        let degenerate = weak(&rotation) || weak(&translation);
         outcome = Some(UpdateOutcome {
             state: estimate,
             covariance: cholesky.inverse(),
             iterations: iteration,
             correspondences: count,
             information_eigenvalues: [
-                eigenvalues[0],
-                eigenvalues[1],
-                eigenvalues[2],
-                eigenvalues[3],
-                eigenvalues[4],
-                eigenvalues[5],
+                rotation[0],
+                rotation[1],
+                rotation[2],
+                translation[0],
+                translation[1],
+                translation[2],
             ],
             degenerate,
         });
@@ -153,4 +156,21 @@ pub fn iterated_update(
         }
     }
     outcome
+}
+
+/// Eigenvalues (ascending) of the rotation and translation information, each with the other block
+/// marginalised out; a singular block leaves its partner's raw block.
+pub fn marginal_eigenvalues(information: &Matrix6<f64>) -> ([f64; 3], [f64; 3]) {
+    let rr = information.fixed_view::<3, 3>(0, 0).into_owned();
+    let rt = information.fixed_view::<3, 3>(0, 3).into_owned();
+    let tt = information.fixed_view::<3, 3>(3, 3).into_owned();
+    let tr = rt.transpose();
+    let rotation = tt.try_inverse().map_or(rr, |tt_inverse| rr - rt * tt_inverse * tr);
+    let translation = rr.try_inverse().map_or(tt, |rr_inverse| tt - tr * rr_inverse * rt);
+    let ascending = |block: nalgebra::Matrix3<f64>| {
+        let mut values: Vec<f64> = block.symmetric_eigenvalues().iter().copied().collect();
+        values.sort_by(f64::total_cmp);
+        [values[0], values[1], values[2]]
+    };
+    (ascending(rotation), ascending(translation))
 }

@@ -146,6 +146,10 @@ impl Source for BagSource {
         self.remaining -= 1;
         Ok(Some(scan))
     }
+
+    fn provides_imu(&self) -> bool {
+        self.assembler.reads_imu()
+    }
 }
 
 impl skid_core::PluginParams for BagConfig {

@@ -140,6 +140,12 @@ impl ScanAssembler {
         })
     }
 
+    /// Whether an IMU topic is read (configured, and checked against the recording's topics when it
+    /// lists them up front).
+    pub fn reads_imu(&self) -> bool {
+        self.topics.imu.is_some()
+    }
+
     /// The next scan in the order the clouds were recorded, `None` at the end of the bag.
     pub fn next_scan(&mut self) -> Result<Option<Scan>, BagError> {
         loop {

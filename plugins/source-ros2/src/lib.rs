@@ -174,6 +174,10 @@ impl Source for Ros2Source {
         self.remaining -= 1;
         Ok(Some(scan))
     }
+
+    fn provides_imu(&self) -> bool {
+        self.assembler.reads_imu()
+    }
 }
 
 /// Registers `ros2` in the source slot.

@@ -33,6 +33,9 @@ pub struct PluginContext {
     pub seed: u64,
     /// Folder for the run's outputs, when the plugin writes any.
     pub output_dir: Option<PathBuf>,
+    /// Whether this robot's source delivers IMU samples with its scans ([`Source::provides_imu`]); the
+    /// host sets it once the source is built, before the other plugins.
+    pub source_provides_imu: bool,
 }
 
 impl Default for PluginContext {
@@ -43,6 +46,7 @@ impl Default for PluginContext {
             threads: 1,
             seed: 0,
             output_dir: None,
+            source_provides_imu: false,
         }
     }
 }

@@ -7,6 +7,12 @@ pub trait Source: Send {
     /// The next scan, or `None` when the sequence has ended.
     fn next_scan(&mut self) -> PluginResult<Option<Scan>>;
 
+    /// Whether the scans carry IMU samples (`Scan::imu`): an IMU is simulated, or an IMU topic is
+    /// configured and present. The `auto` odometry runs LiDAR-inertial odometry on such a source.
+    fn provides_imu(&self) -> bool {
+        false
+    }
+
     /// How many scans remain, when the source knows (files, a fixed simulation length).
     fn remaining_hint(&self) -> Option<usize> {
         None
