@@ -87,26 +87,61 @@ fn odometry(input: &str, out: &Path, extra: &[&str]) -> String {
 #[test]
 fn odometry_on_either_bag_equals_odometry_on_the_kitti_folder() {
     let dir = tempfile::tempdir().unwrap();
-    // Without deskewing the scans are the same points, so the trajectories agree bit for bit.
-    let plain = ["--set", "odometry.kiss_icp.deskew=false"];
+    // Without deskewing the scans are the same points, so the trajectories agree bit for bit. The
+    // folder has no IMU, so the LiDAR-only odometry is compared on both.
+    let lidar_only = ["--set", "odometry.plugin=kiss_icp"];
+    let plain = [
+        lidar_only.as_slice(),
+        &["--set", "odometry.kiss_icp.deskew=false"],
+    ]
+    .concat();
     let kitti = odometry(
         &data("kitti_00_lidar_frames_0000_0015"),
         &dir.path().join("kitti"),
-        &[
-            "--set",
-            "odometry.kiss_icp.deskew=false",
-            "--set",
-            "source.kitti.max_scans=8",
-        ],
+        &[plain.as_slice(), &["--set", "source.kitti.max_scans=8"]].concat(),
     );
     assert_eq!(kitti.lines().count(), 8);
     assert_eq!(odometry(&ros1_bag(), &dir.path().join("ros1"), &plain), kitti);
     assert_eq!(odometry(&mcap_bag(), &dir.path().join("mcap"), &plain), kitti);
     // With deskewing the bags' per-point times are used, identically from both bags.
     assert_eq!(
-        odometry(&ros1_bag(), &dir.path().join("ros1-deskew"), &[]),
-        odometry(&mcap_bag(), &dir.path().join("mcap-deskew"), &[])
+        odometry(&ros1_bag(), &dir.path().join("ros1-deskew"), &lidar_only),
+        odometry(&mcap_bag(), &dir.path().join("mcap-deskew"), &lidar_only)
     );
+}
+
+#[test]
+fn auto_odometry_runs_lio_on_a_bag_with_an_imu_and_kiss_icp_on_a_folder_without() {
+    let dir = tempfile::tempdir().unwrap();
+    let chosen = |input: &str, out: &str, extra: &[&str]| {
+        let mut args = vec!["odometry", input, "--out"];
+        let out = dir.path().join(out);
+        args.push(out.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let output = skid(&args);
+        ok(&output);
+        let log = String::from_utf8_lossy(&output.stderr).into_owned();
+        let trajectory = std::fs::read_to_string(out.join("trajectory.kitti")).unwrap();
+        (log, trajectory)
+    };
+    let (log, _) = chosen(
+        &data("kitti_00_lidar_frames_0000_0015"),
+        "kitti",
+        &["--set", "source.kitti.max_scans=4"],
+    );
+    assert!(log.contains("source has no IMU, running kiss_icp"), "{log}");
+    let (ros1_log, ros1) = chosen(&ros1_bag(), "ros1", &[]);
+    assert!(
+        ros1_log.contains("source provides an IMU, running lio"),
+        "{ros1_log}"
+    );
+    // The IMU samples and stamps decode identically from both containers, so lio's estimates agree.
+    let (_, mcap) = chosen(&mcap_bag(), "mcap", &[]);
+    assert_eq!(ros1.lines().count(), 8);
+    assert_eq!(ros1, mcap);
+    // Without the IMU topic the bag is LiDAR-only again.
+    let (log, _) = chosen(&ros1_bag(), "no-imu", &["--set", "source.bag.imu_topic=\"\""]);
+    assert!(log.contains("source has no IMU, running kiss_icp"), "{log}");
 }
 
 #[test]

@@ -261,7 +261,13 @@ fn candidate_keys(known: &[skid_core::PluginInfo], slot: Slot) -> Vec<String> {
     known
         .iter()
         .find(|info| info.name == AUTO_PLUGIN)
-        .map(|info| info.defaults.table().keys().map(|name| format!("{slot}.{name}")).collect())
+        .map(|info| {
+            info.defaults
+                .table()
+                .keys()
+                .map(|name| format!("{slot}.{name}"))
+                .collect()
+        })
         .unwrap_or_default()
 }
 

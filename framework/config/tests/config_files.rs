@@ -42,16 +42,14 @@ fn load_with_overlay(name: &str) -> Result<skid_config::ResolvedConfig, ConfigEr
 fn default_profile_loads_and_fills_plugin_defaults() {
     let config = sources().load(&registry()).unwrap();
     assert_eq!(config.slot(Slot::Source).plugin, "sim");
-    assert_eq!(config.slot(Slot::Odometry).plugin, "kiss_icp");
-    assert!(
-        config
-            .slot(Slot::Odometry)
-            .params
-            .table()
-            .contains_key("keyframe")
-    );
+    assert_eq!(config.slot(Slot::Odometry).plugin, "auto");
+    // `auto` carries both candidates' complete parameters.
+    let params = config.slot(Slot::Odometry).params.table();
+    assert!(params["kiss_icp"].as_table().unwrap().contains_key("keyframe"));
+    assert!(params["lio"].as_table().unwrap().contains_key("map_voxel_m"));
     let shown = config.to_toml_string();
     assert!(shown.contains("[odometry.kiss_icp.keyframe]"), "{shown}");
+    assert!(shown.contains("[odometry.lio]"), "{shown}");
     assert!(shown.contains("robots = 3"), "{shown}");
 }
 
@@ -372,5 +370,48 @@ fn the_fleet_size_has_one_key() {
         "--set source.sim.robots=2",
         "source.sim.robots",
         &["unknown field `robots`"],
+    );
+}
+
+#[test]
+fn auto_odometry_takes_each_candidates_own_table_and_refuses_one_of_its_own() {
+    let sets = vec![
+        "odometry.kiss_icp.deskew=false".to_owned(),
+        "odometry.lio.map_voxel_m=0.8".to_owned(),
+    ];
+    let config = ConfigSources { sets, ..sources() }.load(&registry()).unwrap();
+    let params = config.slot(Slot::Odometry).params.table().clone();
+    assert_eq!(params["kiss_icp"]["deskew"].as_bool(), Some(false));
+    assert_eq!(params["lio"]["map_voxel_m"].as_float(), Some(0.8));
+    // Unset keys keep the candidate's defaults.
+    assert_eq!(params["kiss_icp"]["voxel_size_m"].as_float(), Some(1.0));
+    // What `config show` prints loads back to the same configuration.
+    let dir = tempfile::tempdir().unwrap();
+    let shown = dir.path().join("shown.toml");
+    std::fs::write(&shown, config.to_toml_string()).unwrap();
+    let again = ConfigSources {
+        overlays: vec![shown],
+        ..sources()
+    }
+    .load(&registry())
+    .unwrap();
+    assert_eq!(again.slot(Slot::Odometry), config.slot(Slot::Odometry));
+
+    let sets = vec!["odometry.auto.lio.map_voxel_m=0.8".to_owned()];
+    let error = ConfigSources { sets, ..sources() }.load(&registry()).unwrap_err();
+    assert_invalid(
+        error,
+        "--set odometry.auto.lio.map_voxel_m=0.8",
+        "odometry.auto",
+        &["odometry.kiss_icp", "odometry.lio"],
+    );
+    // A bad value in a candidate's table is named with that table's key.
+    let sets = vec!["odometry.lio.map_voxel_m=-1".to_owned()];
+    let error = ConfigSources { sets, ..sources() }.load(&registry()).unwrap_err();
+    assert_invalid(
+        error,
+        "--set odometry.lio.map_voxel_m=-1",
+        "odometry.lio.map_voxel_m",
+        &["outside"],
     );
 }

@@ -34,10 +34,16 @@ impl PluginParams for AutoOdometryConfig {
 /// Builds the odometry `auto` chooses for this robot.
 pub fn build(config: AutoOdometryConfig, context: &PluginContext) -> Result<Box<dyn Odometry>, PluginError> {
     if context.source_provides_imu {
-        tracing::info!(robot = context.robot.0, "odometry auto: the source provides an IMU, running lio");
+        tracing::info!(
+            robot = context.robot.0,
+            "odometry auto: the source provides an IMU, running lio"
+        );
         Ok(Box::new(LioOdometry::new(config.lio, context)?))
     } else {
-        tracing::info!(robot = context.robot.0, "odometry auto: the source has no IMU, running kiss_icp");
+        tracing::info!(
+            robot = context.robot.0,
+            "odometry auto: the source has no IMU, running kiss_icp"
+        );
         Ok(Box::new(KissIcpOdometry::new(config.kiss_icp, context)?))
     }
 }

@@ -165,8 +165,12 @@ pub fn marginal_eigenvalues(information: &Matrix6<f64>) -> ([f64; 3], [f64; 3]) 
     let rt = information.fixed_view::<3, 3>(0, 3).into_owned();
     let tt = information.fixed_view::<3, 3>(3, 3).into_owned();
     let tr = rt.transpose();
-    let rotation = tt.try_inverse().map_or(rr, |tt_inverse| rr - rt * tt_inverse * tr);
-    let translation = rr.try_inverse().map_or(tt, |rr_inverse| tt - tr * rr_inverse * rt);
+    let rotation = tt
+        .try_inverse()
+        .map_or(rr, |tt_inverse| rr - rt * tt_inverse * tr);
+    let translation = rr
+        .try_inverse()
+        .map_or(tt, |rr_inverse| tt - tr * rr_inverse * rt);
     let ascending = |block: nalgebra::Matrix3<f64>| {
         let mut values: Vec<f64> = block.symmetric_eigenvalues().iter().copied().collect();
         values.sort_by(f64::total_cmp);
