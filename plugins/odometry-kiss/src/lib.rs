@@ -10,6 +10,7 @@
 //!   drift, for `skid odometry`.
 
 pub mod config;
+pub mod degeneracy;
 pub mod evaluation;
 pub mod icp;
 mod odometry;

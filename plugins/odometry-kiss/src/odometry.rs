@@ -18,6 +18,7 @@ use skid_core::{
 use skid_geometry::{KeyframeTrigger, deskew_constant_velocity, voxel_downsample};
 
 use crate::config::KissIcpConfig;
+use crate::degeneracy::{Degeneracy, assess, lean_on_prediction};
 use crate::icp::{IcpResult, IcpSettings, align_points_to_map};
 use crate::parallel::Parallel;
 use crate::threshold::AdaptiveThreshold;
@@ -46,6 +47,8 @@ pub struct KissIcpOdometry {
     last_stamp_nanos: Option<u64>,
     last_interval_s: Option<f64>,
     last_registration: Option<IcpResult>,
+    last_degeneracy: Option<Degeneracy>,
+    degenerate_scans: u64,
 }
 
 impl std::fmt::Debug for KissIcpOdometry {
@@ -78,6 +81,8 @@ impl KissIcpOdometry {
             last_delta: Pose::identity(),
             last_stamp_pose: Pose::identity(),
             last_stamp_nanos: None,
+            last_degeneracy: None,
+            degenerate_scans: 0,
             last_interval_s: None,
             last_registration: None,
         })
@@ -96,6 +101,16 @@ impl KissIcpOdometry {
     /// Diagnostics of the last registration (iterations, correspondences, convergence).
     pub fn last_registration(&self) -> Option<&IcpResult> {
         self.last_registration.as_ref()
+    }
+
+    /// The degeneracy test of the last registration (`None` when it was off or had no map yet).
+    pub fn last_degeneracy(&self) -> Option<&Degeneracy> {
+        self.last_degeneracy.as_ref()
+    }
+
+    /// Registrations found degenerate so far.
+    pub fn degenerate_scans(&self) -> u64 {
+        self.degenerate_scans
     }
 
     /// Checks the scan before anything is changed.
@@ -228,8 +243,33 @@ impl Odometry for KissIcpOdometry {
             convergence_criterion: self.config.convergence_criterion,
         };
         let registration = align_points_to_map(&source, &self.map, &prediction, &settings, &self.parallel);
+        let degeneracy =
+            (self.config.degeneracy_ratio > 0.0 && registration.correspondences > 0).then(|| {
+                let registered = &registration.world_from_sensor;
+                let world: Vec<Point3<f64>> = source.iter().map(|p| registered * p).collect();
+                assess(&world, &self.map, settings.max_correspondence_m)
+            });
+        let degenerate = degeneracy.as_ref().is_some_and(|d| {
+            d.translation.is_degenerate(self.config.degeneracy_ratio)
+                || d.rotation.is_degenerate(self.config.degeneracy_ratio)
+        });
         // The registered pose is the sensor's at the reference time; `world_from_sensor` is at the stamp.
-        let world_from_reference = registration.world_from_sensor;
+        let world_from_reference = match &degeneracy {
+            // The motion model is leant on only once it holds a measured motion (not at the second scan).
+            Some(d)
+                if self.config.lean_on_motion_model
+                    && self.last_interval_s.is_some()
+                    && d.translation.is_degenerate(self.config.degeneracy_ratio) =>
+            {
+                renormalized(lean_on_prediction(
+                    &registration.world_from_sensor,
+                    &prediction,
+                    &d.translation,
+                    self.config.degeneracy_ratio,
+                ))
+            }
+            _ => registration.world_from_sensor,
+        };
         let finite = world_from_reference
             .to_homogeneous()
             .iter()
@@ -284,6 +324,23 @@ impl Odometry for KissIcpOdometry {
         self.last_pose = world_from_reference;
         self.last_stamp_pose = world_from_sensor;
         self.last_registration = Some(registration);
+        if degenerate {
+            self.degenerate_scans += 1;
+            if self.degenerate_scans.is_power_of_two() {
+                let (translation, rotation) = degeneracy.as_ref().map_or(([0.0; 3], [0.0; 3]), |d| {
+                    (d.translation.ratios(), d.rotation.ratios())
+                });
+                tracing::warn!(
+                    robot = %self.robot,
+                    scan = scan.sequence,
+                    degenerate_scans = self.degenerate_scans,
+                    ?translation,
+                    ?rotation,
+                    "kiss_icp: the scan's geometry leaves a direction unconstrained (information ratios shown); the motion model carries it (repeats logged at powers of two)"
+                );
+            }
+        }
+        self.last_degeneracy = degeneracy;
 
         let keyframe = self
             .trigger

@@ -97,6 +97,13 @@ impl VoxelHashMap {
         self.voxels.values().map(Vec::len).sum()
     }
 
+    /// The points of the voxel that holds `point` (empty when that voxel is).
+    pub fn voxel_points_at(&self, point: &Point3<f64>) -> &[Point3<f64>] {
+        self.voxels
+            .get(&VoxelKey::of(point, self.voxel_size_m))
+            .map_or(&[], Vec::as_slice)
+    }
+
     /// Every map point (in no particular order).
     pub fn points(&self) -> impl Iterator<Item = &Point3<f64>> {
         self.voxels.values().flatten()

@@ -131,9 +131,11 @@ pub fn iterated_update(
         if !estimate.is_finite() {
             return None;
         }
-        let (rotation, translation) = marginal_eigenvalues(&information);
-        let weak = |block: &[f64; 3]| block[2] > 0.0 && block[0] < settings.degeneracy_ratio * block[2];
-        let degenerate = weak(&rotation) || weak(&translation);
+        // The pose block is rotation first, then translation.
+        let (rotation, translation) = skid_geometry::marginal_spectra(&information);
+        let degenerate = rotation.is_degenerate(settings.degeneracy_ratio)
+            || translation.is_degenerate(settings.degeneracy_ratio);
+        let (rotation, translation) = (rotation.values, translation.values);
         outcome = Some(UpdateOutcome {
             state: estimate,
             covariance: cholesky.inverse(),
@@ -156,25 +158,4 @@ pub fn iterated_update(
         }
     }
     outcome
-}
-
-/// Eigenvalues (ascending) of the rotation and translation information, each with the other block
-/// marginalised out; a singular block leaves its partner's raw block.
-pub fn marginal_eigenvalues(information: &Matrix6<f64>) -> ([f64; 3], [f64; 3]) {
-    let rr = information.fixed_view::<3, 3>(0, 0).into_owned();
-    let rt = information.fixed_view::<3, 3>(0, 3).into_owned();
-    let tt = information.fixed_view::<3, 3>(3, 3).into_owned();
-    let tr = rt.transpose();
-    let rotation = tt
-        .try_inverse()
-        .map_or(rr, |tt_inverse| rr - rt * tt_inverse * tr);
-    let translation = rr
-        .try_inverse()
-        .map_or(tt, |rr_inverse| tt - tr * rr_inverse * rt);
-    let ascending = |block: nalgebra::Matrix3<f64>| {
-        let mut values: Vec<f64> = block.symmetric_eigenvalues().iter().copied().collect();
-        values.sort_by(f64::total_cmp);
-        [values[0], values[1], values[2]]
-    };
-    (ascending(rotation), ascending(translation))
 }
