@@ -18,7 +18,7 @@ use nalgebra::{Matrix6, SMatrix, Vector3, Vector6};
 use rayon::prelude::*;
 use skid_core::Pose;
 
-use crate::plane_map::{PlaneMap, fit_plane};
+use crate::plane_map::{Plane, PlaneMap, fit_plane};
 use crate::state::{Covariance, DIM, ErrorVector, POS, ROT, State, skew};
 
 /// The update's settings.
@@ -45,23 +45,37 @@ pub struct UpdateOutcome {
     pub degenerate: bool,
 }
 
-/// One point's contribution: `Hᵢᵀ Hᵢ` and `Hᵢᵀ zᵢ` on the pose block.
-fn point_terms(
+/// A point in the world frame (with its IMU-frame position) under the state.
+fn place(state: &State, imu_from_sensor: &Pose, point: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let in_imu = (imu_from_sensor * nalgebra::Point3::from(*point)).coords;
+    (state.rotation * in_imu + state.position, in_imu)
+}
+
+/// The plane the map fits around the point under the state, if its neighbours are planar.
+fn find_plane(
     state: &State,
     imu_from_sensor: &Pose,
     map: &PlaneMap,
     point: &Vector3<f64>,
     settings: &UpdateSettings,
     scratch: &mut Vec<(f64, Vector3<f64>)>,
-) -> Option<(Matrix6<f64>, Vector6<f64>)> {
-    let in_imu = imu_from_sensor * nalgebra::Point3::from(*point);
-    let in_imu = in_imu.coords;
-    let world = state.rotation * in_imu + state.position;
+) -> Option<Plane> {
+    let (world, _) = place(state, imu_from_sensor, point);
     map.nearest(&world, settings.plane_neighbours, scratch);
     if scratch.len() < settings.plane_neighbours {
         return None;
     }
-    let plane = fit_plane(scratch, settings.max_plane_distance_m)?;
+    fit_plane(scratch, settings.max_plane_distance_m)
+}
+
+/// One point's contribution against its plane: `Hᵢᵀ Hᵢ` and `Hᵢᵀ zᵢ` on the pose block.
+fn point_terms(
+    state: &State,
+    imu_from_sensor: &Pose,
+    plane: &Plane,
+    point: &Vector3<f64>,
+) -> Option<(Matrix6<f64>, Vector6<f64>)> {
+    let (world, in_imu) = place(state, imu_from_sensor, point);
     let residual = plane.distance(&world);
     let range = point.norm();
     // FAST-LIO2's test `1 − 0.9|z|/√‖p‖ > 0.9`: far points may sit a little farther from their plane.
@@ -77,6 +91,11 @@ fn point_terms(
     Some((jacobian * jacobian.transpose(), jacobian * residual))
 }
 
+/// Planes are searched again after a step larger than this (metres, radians); smaller steps keep each
+/// point's plane and only re-evaluate its residual, as FAST-LIO2 searches only when the estimate moved.
+const RESEARCH_TRANSLATION_M: f64 = 0.05;
+const RESEARCH_ROTATION_RAD: f64 = 0.005;
+
 /// The iterated update of the prior `(prior, covariance)` with the scan `points` (sensor frame, at the
 /// state's time) against `map`. `None` when no point found a plane (the prior stands).
 pub fn iterated_update(
@@ -90,17 +109,24 @@ pub fn iterated_update(
     let prior_information = covariance.try_inverse()?;
     let mut estimate = *prior;
     let mut outcome = None;
+    let mut planes: Vec<Option<Plane>> = vec![None; points.len()];
+    let mut search = true;
     for iteration in 1..=settings.max_iterations {
         // Chunks in a fixed order keep the sum the same whatever the thread count.
         let (information, gradient, count) = points
             .par_chunks(1024)
-            .map_init(Vec::new, |scratch, chunk| {
+            .zip(planes.par_chunks_mut(1024))
+            .map_init(Vec::new, |scratch, (chunk, chunk_planes)| {
                 let mut information = Matrix6::zeros();
                 let mut gradient = Vector6::zeros();
                 let mut count = 0usize;
-                for point in chunk {
-                    if let Some((hth, htz)) =
-                        point_terms(&estimate, imu_from_sensor, map, point, settings, scratch)
+                for (point, plane) in chunk.iter().zip(chunk_planes.iter_mut()) {
+                    if search {
+                        *plane = find_plane(&estimate, imu_from_sensor, map, point, settings, scratch);
+                    }
+                    if let Some((hth, htz)) = plane
+                        .as_ref()
+                        .and_then(|plane| point_terms(&estimate, imu_from_sensor, plane, point))
                     {
                         information += hth;
                         gradient += htz;
@@ -156,6 +182,7 @@ pub fn iterated_update(
         if rotation_step < 1e-4 && translation_step < 1e-3 {
             break;
         }
+        search = rotation_step > RESEARCH_ROTATION_RAD || translation_step > RESEARCH_TRANSLATION_M;
     }
     outcome
 }
