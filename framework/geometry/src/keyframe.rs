@@ -2,7 +2,9 @@
 //! or enough time has passed since the last keyframe.
 
 use serde::{Deserialize, Serialize};
-use skid_core::Pose;
+use skid_core::{Cloud, Keyframe, KeyframeId, Point, Pose, RobotId};
+
+use crate::voxel_downsample;
 
 /// Thresholds of the keyframe policy; any one of them fires a keyframe.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -63,6 +65,25 @@ impl KeyframeTrigger {
         let index = self.count;
         self.count += 1;
         Some(index)
+    }
+
+    /// The keyframe of robot `robot`'s scan at `stamp_nanos`, when the policy fires: its cloud is
+    /// `points_at_stamp()` (sensor frame at the stamp, built only then) downsampled at `voxel_m`.
+    pub fn keyframe(
+        &mut self,
+        robot: RobotId,
+        stamp_nanos: u64,
+        world_from_sensor: &Pose,
+        voxel_m: f64,
+        points_at_stamp: impl FnOnce() -> Vec<Point>,
+    ) -> Option<Keyframe> {
+        let index = self.check(stamp_nanos, world_from_sensor)?;
+        Some(Keyframe {
+            id: KeyframeId { robot, index },
+            stamp_nanos,
+            world_from_sensor: *world_from_sensor,
+            cloud: Cloud::new(voxel_downsample(&points_at_stamp(), voxel_m as f32)),
+        })
     }
 }
 

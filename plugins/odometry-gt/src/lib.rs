@@ -12,10 +12,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 use skid_core::slots::{Odometry, OdometryUpdate};
-use skid_core::{
-    Cloud, Keyframe, KeyframeId, PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry, Scan,
-};
-use skid_geometry::{KeyframePolicy, KeyframeTrigger, deskew_constant_velocity, voxel_downsample};
+use skid_core::{PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry, Scan};
+use skid_geometry::{KeyframePolicy, KeyframeTrigger, deskew_constant_velocity};
 
 /// Parameters of the `ground_truth` odometry.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -161,22 +159,13 @@ impl Odometry for GroundTruthOdometry {
         };
         self.previous = Some((ground_truth, world_from_sensor));
         self.previous_stamp_nanos = Some(scan.stamp_nanos);
-        let keyframe = self
-            .trigger
-            .check(scan.stamp_nanos, &world_from_sensor)
-            .map(|index| {
-                let deskewed =
-                    deskew_constant_velocity(&scan.points, &previous_from_current, self.config.scan_period_s);
-                Keyframe {
-                    id: KeyframeId {
-                        robot: self.context.robot,
-                        index,
-                    },
-                    stamp_nanos: scan.stamp_nanos,
-                    world_from_sensor,
-                    cloud: Cloud::new(voxel_downsample(&deskewed, self.config.keyframe_voxel_m as f32)),
-                }
-            });
+        let keyframe = self.trigger.keyframe(
+            self.context.robot,
+            scan.stamp_nanos,
+            &world_from_sensor,
+            self.config.keyframe_voxel_m,
+            || deskew_constant_velocity(&scan.points, &previous_from_current, self.config.scan_period_s),
+        );
         Ok(OdometryUpdate {
             stamp_nanos: scan.stamp_nanos,
             world_from_sensor,

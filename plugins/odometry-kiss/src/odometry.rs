@@ -11,10 +11,7 @@
 
 use nalgebra::Point3;
 use skid_core::slots::{Odometry, OdometryUpdate};
-use skid_core::{
-    Cloud, Keyframe, KeyframeId, PluginContext, PluginError, PluginResult, Point, Pose, RawPoint, RobotId,
-    Scan,
-};
+use skid_core::{PluginContext, PluginError, PluginResult, Point, Pose, RawPoint, RobotId, Scan};
 use skid_geometry::{KeyframeTrigger, deskew_constant_velocity, voxel_downsample};
 
 use crate::config::KissIcpConfig;
@@ -342,12 +339,14 @@ impl Odometry for KissIcpOdometry {
         }
         self.last_degeneracy = degeneracy;
 
-        let keyframe = self
-            .trigger
-            .check(scan.stamp_nanos, &world_from_sensor)
-            .map(|index| {
-                // The keyframe cloud is given in the sensor frame at the stamp, like its pose.
-                let at_stamp: Vec<Point> = if stamp_from_reference == Pose::identity() {
+        // The keyframe cloud is given in the sensor frame at the stamp, like its pose.
+        let keyframe = self.trigger.keyframe(
+            self.robot,
+            scan.stamp_nanos,
+            &world_from_sensor,
+            self.config.keyframe_voxel_m,
+            || {
+                if stamp_from_reference == Pose::identity() {
                     cropped
                 } else {
                     cropped
@@ -358,17 +357,9 @@ impl Odometry for KissIcpOdometry {
                             Point::with_intensity(q.x as f32, q.y as f32, q.z as f32, p.intensity)
                         })
                         .collect()
-                };
-                Keyframe {
-                    id: KeyframeId {
-                        robot: self.robot,
-                        index,
-                    },
-                    stamp_nanos: scan.stamp_nanos,
-                    world_from_sensor,
-                    cloud: Cloud::new(voxel_downsample(&at_stamp, self.config.keyframe_voxel_m as f32)),
                 }
-            });
+            },
+        );
         Ok(OdometryUpdate {
             stamp_nanos: scan.stamp_nanos,
             world_from_sensor,
