@@ -41,8 +41,17 @@ fn plugins_lists_every_slot_with_defaults() {
     }
     let json = skid(&["plugins", "--json", "--slot", "odometry"], &[]);
     let rows: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
-    assert_eq!(rows[0]["name"], "ground_truth");
-    assert_eq!(rows[0]["defaults"]["keyframe"]["distance_m"], 2.0);
+    let names: Vec<&str> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|row| row["name"].as_str())
+        .collect();
+    assert_eq!(names, ["auto", "ground_truth", "kiss_icp", "lio"]);
+    assert_eq!(rows[1]["defaults"]["keyframe"]["distance_m"], 2.0);
+    // `auto` shows both candidates' defaults.
+    assert_eq!(rows[0]["defaults"]["kiss_icp"]["keyframe"]["distance_m"], 2.0);
+    assert!(rows[0]["defaults"]["lio"]["map_voxel_m"].is_number());
     let bad = skid(&["plugins", "--slot", "odometryy"], &[]);
     assert!(!bad.status.success());
     assert!(text(&bad.stderr).contains("unknown slot `odometryy`"));

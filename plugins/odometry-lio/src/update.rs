@@ -93,8 +93,9 @@ fn point_terms(
 
 /// Planes are searched again after a step larger than this (metres, radians); smaller steps keep each
 /// point's plane and only re-evaluate its residual, as FAST-LIO2 searches only when the estimate moved.
-const RESEARCH_TRANSLATION_M: f64 = 0.05;
-const RESEARCH_ROTATION_RAD: f64 = 0.005;
+/// At 5 cm / 0.3° the default world's first 100 scans came out 2.1 % long; at 1 cm / 0.1°, 0.6-1.7 %.
+const RESEARCH_TRANSLATION_M: f64 = 0.01;
+const RESEARCH_ROTATION_RAD: f64 = 0.002;
 
 /// The iterated update of the prior `(prior, covariance)` with the scan `points` (sensor frame, at the
 /// state's time) against `map`. `None` when no point found a plane (the prior stands).
