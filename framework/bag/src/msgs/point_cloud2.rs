@@ -193,41 +193,6 @@ impl FieldSlot {
         }
     }
 
-    /// Reads this field as `f32`, with a branch-free path for the common `float32` field.
-    #[inline(always)]
-    fn read_f32(&self, point: &[u8], big_endian: bool) -> f32 {
-        if self.datatype == datatype::FLOAT32 {
-            let mut raw = [0u8; 4];
-            raw.copy_from_slice(&point[self.offset..self.offset + 4]);
-            if big_endian {
-                f32::from_be_bytes(raw)
-            } else {
-                f32::from_le_bytes(raw)
-            }
-        } else {
-            self.read(point, big_endian) as f32
-        }
-    }
-
-    /// Reads a ring index, kept below [`RawPoint::UNKNOWN_RING`]; `uint8` and `uint16` rings (what
-    /// drivers publish) are read without going through `f64`.
-    #[inline(always)]
-    fn read_ring(&self, point: &[u8], big_endian: bool) -> u16 {
-        match self.datatype {
-            datatype::UINT8 => u16::from(point[self.offset]),
-            datatype::UINT16 => {
-                let raw = [point[self.offset], point[self.offset + 1]];
-                let ring = if big_endian {
-                    u16::from_be_bytes(raw)
-                } else {
-                    u16::from_le_bytes(raw)
-                };
-                ring.min(RawPoint::UNKNOWN_RING - 1)
-            }
-            _ => self.read(point, big_endian).clamp(0.0, f64::from(u16::MAX - 1)) as u16,
-        }
-    }
-
     fn is_float(&self) -> bool {
         matches!(self.datatype, datatype::FLOAT32 | datatype::FLOAT64)
     }
@@ -387,16 +352,11 @@ fn convert_with<const BIG_ENDIAN: bool, const F32: bool>(
                 decoded.dropped_non_finite += 1;
                 continue;
             }
-            let intensity = intensity.map_or(0.0, |slot| slot.read_f32(point, BIG_ENDIAN));
-            let ring = ring.map_or(RawPoint::UNKNOWN_RING, |slot| slot.read_ring(point, BIG_ENDIAN));
+            let intensity = intensity.map_or(0.0, |slot| slot.read(point, BIG_ENDIAN) as f32);
+            let ring = ring.map_or(RawPoint::UNKNOWN_RING, |slot| {
+                slot.read(point, BIG_ENDIAN).clamp(0.0, f64::from(u16::MAX - 1)) as u16
+            });
             let time_offset_s = time.map_or(0.0, |(slot, scale)| {
-                if slot.datatype == datatype::FLOAT32 {
-                    // Relative seconds (Velodyne's `time`) need no f64 detour; absolute ones do.
-                    let seconds = slot.read_f32(point, BIG_ENDIAN);
-                    if seconds.abs() <= ABSOLUTE_TIME_THRESHOLD_S as f32 {
-                        return seconds;
-                    }
-                }
                 let seconds = slot.read(point, BIG_ENDIAN) * scale;
                 let offset = if seconds.abs() > ABSOLUTE_TIME_THRESHOLD_S {
                     seconds - stamp_s
