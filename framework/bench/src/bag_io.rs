@@ -97,17 +97,33 @@ fn rosbags_runs_ms(
     Ok(runs)
 }
 
-/// Measures one bag: `runs` full decodes by SKiD and by the peer.
-pub fn measure(label: &str, path: &Path, topic: &str, runs: usize) -> Result<BagRow> {
+/// Measures one bag: `rounds` rounds, each `runs_per_round` full decodes by SKiD and then as many by the
+/// peer, so both see the machine in the same state (a shared machine's speed drifts over seconds).
+pub fn measure(
+    label: &str,
+    path: &Path,
+    topic: &str,
+    rounds: usize,
+    runs_per_round: usize,
+) -> Result<BagRow> {
     let bytes = bag_bytes(path)?;
-    let (mut messages, mut points, mut times_ms) = (0, 0, Vec::new());
-    for _ in 0..runs {
-        let started = Instant::now();
-        (messages, points) = decode_all(path, topic)?;
-        times_ms.push(started.elapsed().as_secs_f64() * 1e3);
+    let (mut messages, mut points) = (0, 0);
+    let (mut skid_ms, mut peer_ms) = (Vec::new(), Some(Vec::new()));
+    for _ in 0..rounds {
+        for _ in 0..runs_per_round {
+            let started = Instant::now();
+            (messages, points) = decode_all(path, topic)?;
+            skid_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        }
+        if let Some(all_peer_ms) = peer_ms.as_mut() {
+            match rosbags_runs_ms(path, topic, runs_per_round, points)? {
+                Some(runs) => all_peer_ms.extend(runs),
+                None => peer_ms = None,
+            }
+        }
     }
-    let skid = Timing::from_ms(&times_ms).median_ms;
-    let peer = rosbags_runs_ms(path, topic, runs, points)?.map(|runs| Timing::from_ms(&runs).median_ms);
+    let skid = Timing::from_ms(&skid_ms).median_ms;
+    let peer = peer_ms.map(|runs| Timing::from_ms(&runs).median_ms);
     let mb_per_s = |ms: f64| bytes as f64 / 1e6 / (ms / 1e3);
     Ok(BagRow {
         bag: label.to_owned(),

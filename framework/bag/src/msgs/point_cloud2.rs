@@ -21,6 +21,10 @@ use skid_msgs::RawPoint;
 use crate::error::DecodeError;
 use crate::wire::{Header, WireReader};
 
+mod convert;
+
+pub use convert::raw_points;
+
 /// `sensor_msgs/PointField` datatypes.
 pub mod datatype {
     pub const INT8: u8 = 1;
@@ -166,34 +170,7 @@ pub struct FieldSlot {
 }
 
 impl FieldSlot {
-    /// Reads the value of this field in one point's bytes (the slot is known to fit in the point).
-    #[inline(always)]
-    fn read(&self, point: &[u8], big_endian: bool) -> f64 {
-        let bytes = &point[self.offset..];
-        macro_rules! number {
-            ($ty:ty, $n:literal) => {{
-                let mut raw = [0u8; $n];
-                raw.copy_from_slice(&bytes[..$n]);
-                if big_endian {
-                    <$ty>::from_be_bytes(raw) as f64
-                } else {
-                    <$ty>::from_le_bytes(raw) as f64
-                }
-            }};
-        }
-        match self.datatype {
-            datatype::INT8 => f64::from(bytes[0] as i8),
-            datatype::UINT8 => f64::from(bytes[0]),
-            datatype::INT16 => number!(i16, 2),
-            datatype::UINT16 => number!(u16, 2),
-            datatype::INT32 => number!(i32, 4),
-            datatype::UINT32 => number!(u32, 4),
-            datatype::FLOAT32 => number!(f32, 4),
-            _ => number!(f64, 8),
-        }
-    }
-
-    fn is_float(&self) -> bool {
+    pub(crate) fn is_float(&self) -> bool {
         matches!(self.datatype, datatype::FLOAT32 | datatype::FLOAT64)
     }
 }
@@ -215,7 +192,7 @@ const RING_NAMES: [&str; 4] = ["ring", "line", "channel", "laser_id"];
 const TIME_NAMES: [&str; 5] = ["time", "t", "timestamp", "offset_time", "time_offset"];
 
 /// Time values above this many seconds are absolute (since the epoch), not offsets within a sweep.
-const ABSOLUTE_TIME_THRESHOLD_S: f64 = 1e6;
+pub(crate) const ABSOLUTE_TIME_THRESHOLD_S: f64 = 1e6;
 
 impl CloudLayout {
     /// Finds the roles in `fields`; a cloud without `x`, `y` and `z` is an error.
@@ -280,95 +257,4 @@ pub struct DecodedPoints {
     pub points: Vec<RawPoint>,
     /// Points dropped because a coordinate was NaN or infinite.
     pub dropped_non_finite: usize,
-}
-
-/// Converts a cloud's points with `layout`: positions, intensity, ring and the time offset from the
-/// header stamp in seconds.
-pub fn raw_points(cloud: &PointCloud2<'_>, layout: &CloudLayout) -> DecodedPoints {
-    if cloud.is_bigendian {
-        convert::<true>(cloud, layout)
-    } else {
-        convert::<false>(cloud, layout)
-    }
-}
-
-/// The conversion, compiled once per byte order, and once more for the common `float32` coordinates,
-/// so the per-point reads of x, y and z carry no byte-order or type branch.
-fn convert<const BIG_ENDIAN: bool>(cloud: &PointCloud2<'_>, layout: &CloudLayout) -> DecodedPoints {
-    let f32_coordinates = [layout.x, layout.y, layout.z]
-        .iter()
-        .all(|slot| slot.datatype == datatype::FLOAT32);
-    if f32_coordinates {
-        convert_with::<BIG_ENDIAN, true>(cloud, layout)
-    } else {
-        convert_with::<BIG_ENDIAN, false>(cloud, layout)
-    }
-}
-
-/// One coordinate: read directly as `f32` when `F32` (the slot's type is known), else through the
-/// slot's general reader.
-#[inline(always)]
-fn coordinate<const BIG_ENDIAN: bool, const F32: bool>(slot: &FieldSlot, point: &[u8]) -> f32 {
-    if F32 {
-        let mut raw = [0u8; 4];
-        raw.copy_from_slice(&point[slot.offset..slot.offset + 4]);
-        if BIG_ENDIAN {
-            f32::from_be_bytes(raw)
-        } else {
-            f32::from_le_bytes(raw)
-        }
-    } else {
-        slot.read(point, BIG_ENDIAN) as f32
-    }
-}
-
-fn convert_with<const BIG_ENDIAN: bool, const F32: bool>(
-    cloud: &PointCloud2<'_>,
-    layout: &CloudLayout,
-) -> DecodedPoints {
-    let step = cloud.point_step as usize;
-    let width = cloud.width as usize;
-    let stamp_s = cloud.header.stamp_nanos as f64 * 1e-9;
-    let mut decoded = DecodedPoints {
-        points: Vec::with_capacity(cloud.point_count()),
-        dropped_non_finite: 0,
-    };
-    if step == 0 {
-        return decoded;
-    }
-    let intensity = layout.intensity.as_ref().map(|(_, slot)| *slot);
-    let ring = layout.ring.as_ref().map(|(_, slot)| *slot);
-    // Integer times are nanoseconds, floating-point times seconds.
-    let time = layout
-        .time
-        .as_ref()
-        .map(|(_, slot)| (*slot, if slot.is_float() { 1.0 } else { 1e-9 }));
-    for row in cloud.data.chunks_exact(cloud.row_step.max(1) as usize) {
-        for point in row[..width * step].chunks_exact(step) {
-            let x = coordinate::<BIG_ENDIAN, F32>(&layout.x, point);
-            let y = coordinate::<BIG_ENDIAN, F32>(&layout.y, point);
-            let z = coordinate::<BIG_ENDIAN, F32>(&layout.z, point);
-            if !(x.is_finite() && y.is_finite() && z.is_finite()) {
-                decoded.dropped_non_finite += 1;
-                continue;
-            }
-            let intensity = intensity.map_or(0.0, |slot| slot.read(point, BIG_ENDIAN) as f32);
-            let ring = ring.map_or(RawPoint::UNKNOWN_RING, |slot| {
-                slot.read(point, BIG_ENDIAN).clamp(0.0, f64::from(u16::MAX - 1)) as u16
-            });
-            let time_offset_s = time.map_or(0.0, |(slot, scale)| {
-                let seconds = slot.read(point, BIG_ENDIAN) * scale;
-                let offset = if seconds.abs() > ABSOLUTE_TIME_THRESHOLD_S {
-                    seconds - stamp_s
-                } else {
-                    seconds
-                };
-                offset as f32
-            });
-            decoded
-                .points
-                .push(RawPoint::new(x, y, z, intensity, time_offset_s, ring));
-        }
-    }
-    decoded
 }

@@ -107,7 +107,8 @@ fn main() -> Result<()> {
             label,
             &data.join(relative),
             "/velodyne_points",
-            7,
+            5,
+            3,
         )?)?;
     }
     bags.write(&args.out.join("bags"))
