@@ -14,6 +14,7 @@ mod bag;
 mod chunk_codec;
 mod connection;
 mod error;
+mod lz4_block;
 mod lz4_frame;
 mod mcap_file;
 pub mod msgs;

@@ -2,7 +2,8 @@
 //! buffer: a ROS 1 bag's `lz4` chunk is a frame whose uncompressed size the chunk header states, so each
 //! block is decompressed into its place in the chunk buffer, with no intermediate block buffer and no
 //! copy out of one. Linked blocks (what `roslz4` and Python's `lz4.frame` write) reach back into the
-//! previous 64 KiB of output, which is simply the bytes before the block in the same buffer.
+//! previous 64 KiB of output, which is simply the bytes before the block in the same buffer. The frame
+//! is parsed and checked here; each compressed block is decoded by liblz4 ([`crate::lz4_block`]).
 //!
 //! A frame is the magic number `0x184D2204`, a descriptor (FLG and BD bytes, the optional content size
 //! and dictionary id, a header checksum), data blocks (a `u32` size whose top bit marks a stored block,
@@ -149,26 +150,26 @@ fn decompress_frame(input: &mut Input<'_>, out: &mut [u8], mut written: usize) -
         }
         let out_bytes = out.len();
         let too_much = || format!("lz4 data decompresses to more than the {out_bytes} bytes its header says");
-        let (before, after) = out.split_at_mut(written);
-        let room = descriptor.max_block_bytes.min(after.len());
+        let room = descriptor.max_block_bytes.min(out_bytes - written);
         let room_limited_by_size = room < descriptor.max_block_bytes;
-        let target = &mut after[..room];
         let produced = if block_header & STORED_BLOCK_BIT != 0 {
-            target
+            out[written..written + room]
                 .get_mut(..block_bytes)
                 .ok_or_else(too_much)?
                 .copy_from_slice(block);
             block_bytes
         } else {
-            let decoded = if descriptor.independent_blocks || written == frame_start {
-                lz4_flex::block::decompress_into(block, target)
+            let window_start = if descriptor.independent_blocks {
+                written
             } else {
-                let window_start = written.saturating_sub(WINDOW_BYTES).max(frame_start);
-                lz4_flex::block::decompress_into_with_dict(block, target, &before[window_start..])
+                written.saturating_sub(WINDOW_BYTES).max(frame_start)
             };
-            decoded.map_err(|e| match e {
-                lz4_flex::block::DecompressError::OutputTooSmall { .. } if room_limited_by_size => too_much(),
-                other => format!("lz4 block at output byte {written} is corrupt: {other}"),
+            crate::lz4_block::decompress_after_prefix(block, out, window_start, written, room).ok_or_else(|| {
+                if room_limited_by_size {
+                    format!("lz4 data decompresses to more than the {out_bytes} bytes its header says, or a block at output byte {written} is corrupt")
+                } else {
+                    format!("lz4 block at output byte {written} is corrupt")
+                }
             })?
         };
         written += produced;

@@ -108,7 +108,7 @@ fn main() -> Result<()> {
             &data.join(relative),
             "/velodyne_points",
             5,
-            3,
+            5,
         )?)?;
     }
     bags.write(&args.out.join("bags"))
