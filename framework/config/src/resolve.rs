@@ -8,7 +8,7 @@ use figment::{Figment, Source};
 use skid_core::{Params, Registry, Slot};
 
 use crate::schema::{AUTO_PLUGIN, MAX_ROBOTS, NONE_PLUGIN, RawConfig, RawSlot};
-use crate::{ConfigError, DeploySection, LoopsSection, RunSection};
+use crate::{ConfigError, DeploySection, LoopsSection, OutputSection, RunSection};
 
 /// One slot after validation: the selected plugin and its complete parameters (defaults filled in).
 #[derive(Clone, Debug, PartialEq)]
@@ -30,6 +30,7 @@ pub struct ResolvedConfig {
     pub run: RunSection,
     pub deploy: DeploySection,
     pub loops: LoopsSection,
+    pub output: OutputSection,
     pub slots: BTreeMap<Slot, ResolvedSlot>,
 }
 
@@ -57,6 +58,9 @@ impl ResolvedConfig {
         }
         if let Ok(toml::Value::Table(loops)) = toml::Value::try_from(&self.loops) {
             root.insert("loops".to_owned(), toml::Value::Table(loops));
+        }
+        if let Ok(toml::Value::Table(output)) = toml::Value::try_from(&self.output) {
+            root.insert("output".to_owned(), toml::Value::Table(output));
         }
         for (slot, resolved) in &self.slots {
             let mut table = toml::Table::new();
@@ -132,6 +136,9 @@ pub(crate) fn resolve(
         };
         return Err(invalid(figment, key, reason));
     }
+    if let Err(reason) = raw.output.validate() {
+        return Err(invalid(figment, "output.record_voxel_m", reason));
+    }
     let mut slots = BTreeMap::new();
     for slot in Slot::ALL {
         let resolved = match raw.slot(slot) {
@@ -154,6 +161,7 @@ pub(crate) fn resolve(
         run: raw.run,
         deploy: raw.deploy,
         loops: raw.loops,
+        output: raw.output,
         slots,
     })
 }

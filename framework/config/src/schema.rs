@@ -114,6 +114,39 @@ impl DeploySection {
     }
 }
 
+/// `[output]`: what a run writes besides its trajectories, metrics and plots.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OutputSection {
+    /// Write `run.mcap`, the run record ROS 2 tools, Foxglove Studio and `rosbags` open: trajectories,
+    /// keyframe clouds, the merged map, loop closures and the map frames.
+    pub record: bool,
+    /// Edge of the voxels the record's keyframe clouds are thinned with, metres (0 keeps every point).
+    pub record_voxel_m: f64,
+}
+
+impl Default for OutputSection {
+    fn default() -> Self {
+        Self {
+            record: true,
+            record_voxel_m: 0.5,
+        }
+    }
+}
+
+impl OutputSection {
+    /// Checks the section; the message names the offending key.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.record_voxel_m.is_finite() && self.record_voxel_m >= 0.0) {
+            return Err(format!(
+                "output.record_voxel_m = {} must be finite and non-negative (0 keeps every point)",
+                self.record_voxel_m
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// `[loops]`: how the runtime turns descriptors into loop candidates and loops into graph updates.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -181,6 +214,8 @@ pub(crate) struct RawConfig {
     pub deploy: DeploySection,
     #[serde(default)]
     pub loops: LoopsSection,
+    #[serde(default)]
+    pub output: OutputSection,
     pub source: Option<RawSlot>,
     pub odometry: Option<RawSlot>,
     pub descriptor: Option<RawSlot>,

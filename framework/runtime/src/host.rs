@@ -143,6 +143,8 @@ pub struct RobotHost {
     pub stats: LoopStats,
     /// Each loop this robot registered and submitted, with whether it is inter-robot.
     pub loop_standing: BTreeMap<LoopId, (bool, LoopStanding)>,
+    /// Why the verifier refused (or retracted) each loop that stands rejected.
+    pub rejection_reasons: BTreeMap<LoopId, String>,
     pub stage_ms: BTreeMap<&'static str, f64>,
     pub points_read: usize,
     /// Scans read from the source, including those the odometry skipped.
@@ -193,6 +195,7 @@ impl RobotHost {
             scans: Vec::new(),
             stats: LoopStats::default(),
             loop_standing: BTreeMap::new(),
+            rejection_reasons: BTreeMap::new(),
             stage_ms: BTreeMap::new(),
             points_read: 0,
             scans_read: 0,

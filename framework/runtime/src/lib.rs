@@ -21,6 +21,7 @@ mod outputs;
 mod peers;
 mod process;
 mod run_folder;
+mod run_record;
 mod settings;
 mod single;
 mod stop;

@@ -144,8 +144,9 @@ impl RobotHost {
                 "verifier verdict"
             );
         }
-        for (id, _reason) in &verdict.rejected {
+        for (id, reason) in &verdict.rejected {
             self.set_standing(*id, LoopStanding::Rejected);
+            self.rejection_reasons.insert(*id, reason.clone());
         }
         let mut changed = false;
         let mut accepted_messages = Vec::new();
@@ -154,6 +155,8 @@ impl RobotHost {
             if let Some(closure) = self.loops.remove(&id) {
                 self.stats.retracted += 1;
                 self.set_standing(id, LoopStanding::Rejected);
+                self.rejection_reasons
+                    .insert(id, "retracted: no longer consistent with the others".to_owned());
                 if let Some(backend) = self.plugins.backend.as_mut() {
                     backend.remove_loop(id).map_err(|e| RuntimeError::Plugin {
                         robot: self.robot,
@@ -178,6 +181,7 @@ impl RobotHost {
             }
             self.add_loop_to_backend(config, &closure)?;
             self.set_standing(id, LoopStanding::Accepted);
+            self.rejection_reasons.remove(&id);
             if closure.is_inter_robot() {
                 accepted_messages.push(closure.clone());
             }

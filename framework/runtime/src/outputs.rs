@@ -1,6 +1,7 @@
 //! Writes a run's outputs under `<output_dir>/<name>/` (staged by [`crate::run_folder`]): the effective configuration (`config.toml`),
 //! per-robot trajectories (TUM and KITTI; the optimised estimate and the ground truth) and pose graphs
-//! (g2o), the merged map (`map.ply`), `metrics.json`, `summary.json` and the PNG plots.
+//! (g2o), the merged map (`map.ply`), the run record (`run.mcap`), `metrics.json`, `summary.json` and the
+//! PNG plots.
 
 use std::path::{Path, PathBuf};
 
@@ -74,6 +75,10 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<(PathBuf, Ru
         write_ply(&path, &map, PlyFormat::BinaryLittleEndian).map_err(|e| output_error(&path, e))?;
     }
     write_plots(&folder, &fleet.robots, &frames, &map)?;
+    if fleet.config.output.record {
+        let voxel_m = fleet.config.output.record_voxel_m;
+        crate::run_record::write_run_record(&folder, &fleet.robots, &frames, &map, voxel_m)?;
+    }
     let metrics = RunMetrics::with_frames(&fleet.config.run.name, &fleet.robots, &fits);
     write_json(&folder.join("metrics.json"), &metrics)?;
     write_json(&folder.join("summary.json"), summary)?;

@@ -67,20 +67,26 @@ impl WrittenType {
                 ],
             ),
         };
-        let mut text = main.to_owned();
-        let mut sections: Vec<&str> = dependencies.to_vec();
-        if encoding == Encoding::Cdr {
-            sections.push("builtin_interfaces/Time");
-        }
-        for name in sections {
-            text.push_str(&"=".repeat(80));
-            text.push_str("\nMSG: ");
-            text.push_str(name);
-            text.push('\n');
-            text.push_str(dependency(name, encoding));
-        }
-        text
+        full_definition(main, dependencies, encoding)
     }
+}
+
+/// A type's full definition text: its own fields, then one `MSG:` section per type it uses (and, in ROS 2,
+/// `builtin_interfaces/Time`, which every header uses).
+pub(crate) fn full_definition(main: &str, dependencies: &[&str], encoding: Encoding) -> String {
+    let mut text = main.to_owned();
+    let mut sections: Vec<&str> = dependencies.to_vec();
+    if encoding == Encoding::Cdr {
+        sections.push("builtin_interfaces/Time");
+    }
+    for name in sections {
+        text.push_str(&"=".repeat(80));
+        text.push_str("\nMSG: ");
+        text.push_str(name);
+        text.push('\n');
+        text.push_str(dependency(name, encoding));
+    }
+    text
 }
 
 const POINT_CLOUD2: &str = "std_msgs/Header header\nuint32 height\nuint32 width\nsensor_msgs/PointField[] fields\n\
@@ -106,6 +112,19 @@ uint8 FLOAT32=7\nuint8 FLOAT64=8\nstring name\nuint32 offset\nuint8 datatype\nui
         ("geometry_msgs/Pose", _) => "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n",
         ("geometry_msgs/TwistWithCovariance", _) => "geometry_msgs/Twist twist\nfloat64[36] covariance\n",
         ("geometry_msgs/Twist", _) => "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n",
+        ("geometry_msgs/PoseStamped", _) => "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
+        ("geometry_msgs/TransformStamped", _) => {
+            "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n"
+        }
+        ("geometry_msgs/Transform", _) => {
+            "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"
+        }
+        ("std_msgs/ColorRGBA", _) => "float32 r\nfloat32 g\nfloat32 b\nfloat32 a\n",
+        ("builtin_interfaces/Duration", _) => "int32 sec\nuint32 nanosec\n",
+        ("sensor_msgs/CompressedImage", _) => "std_msgs/Header header\nstring format\nuint8[] data\n",
+        ("visualization_msgs/UVCoordinate", _) => "float32 u\nfloat32 v\n",
+        ("visualization_msgs/MeshFile", _) => "string filename\nuint8[] data\n",
+        ("visualization_msgs/Marker", _) => super::viz::MARKER,
         _ => "",
     }
 }

@@ -1,10 +1,13 @@
-//! Writing bags: ROS 1 bags ([`Ros1Writer`]) and ROS 2 MCAP bag folders ([`McapBagWriter`]), the message
-//! serialization both share ([`WireWriter`], [`encode`]), and [`RobotBagWriter`], which records one robot's
-//! scans, IMU samples and ground truth on the standard topics.
+//! Writing bags: ROS 1 bags ([`Ros1Writer`]), bare MCAP files ([`McapWriter`]) and ROS 2 MCAP bag folders
+//! ([`McapBagWriter`]), the message serialization they share ([`WireWriter`], [`encode`], and [`viz`] for
+//! paths, transforms and markers), and [`RobotBagWriter`], which records one robot's scans, IMU samples
+//! and ground truth on the standard topics.
 
 pub mod encode;
 mod mcap_bag;
+mod mcap_writer;
 mod ros1;
+pub mod viz;
 mod wire_writer;
 
 use std::path::{Path, PathBuf};
@@ -13,6 +16,7 @@ use skid_msgs::{ImuSample, RawPoint};
 
 pub use encode::WrittenType;
 pub use mcap_bag::McapBagWriter;
+pub use mcap_writer::{McapWriter, WrittenMcap, WrittenTopic};
 pub use ros1::{Ros1Compression, Ros1Writer};
 pub use wire_writer::WireWriter;
 

@@ -59,6 +59,11 @@ impl WireWriter {
         self.bytes.extend_from_slice(&value.to_le_bytes());
     }
 
+    pub fn f32(&mut self, value: f32) {
+        self.align(4);
+        self.bytes.extend_from_slice(&value.to_le_bytes());
+    }
+
     pub fn f64(&mut self, value: f64) {
         self.align(8);
         self.bytes.extend_from_slice(&value.to_le_bytes());

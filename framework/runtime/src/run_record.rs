@@ -1,0 +1,291 @@
+//! `run.mcap`, the run record: what a run estimated, as ROS 2 messages in an MCAP file that Foxglove
+//! Studio, Lichtblick, `ros2 bag play` and `rosbags` open with no SKiD code (CDR, `ros2msg` schemas).
+//!
+//! Frames: `map` is robot 0's map frame; each robot `i` has `robot<i>/map` (its optimised frame, placed in
+//! `map` on `/tf_static` where the back-end knows it), `robot<i>/odom` (its odometry frame) and
+//! `robot<i>/base_link` (the sensor). Topics, per robot `i`:
+//!
+//! | topic | type | content |
+//! |---|---|---|
+//! | `/robot<i>/odometry` | `nav_msgs/Odometry` | the odometry, one per scan |
+//! | `/tf` | `tf2_msgs/TFMessage` | per scan: `robot<i>/odom → base_link` and the correction `robot<i>/map → odom` |
+//! | `/robot<i>/keyframes` | `sensor_msgs/PointCloud2` | each keyframe's cloud at its optimised pose, in `robot<i>/map`, thinned to `output.record_voxel_m` |
+//! | `/robot<i>/path` | `nav_msgs/Path` | the optimised trajectory (the poses of `trajectory.tum`), once at the end |
+//! | `/robot<i>/ground_truth` | `nav_msgs/Path` | the ground truth in the simulator's or dataset's world frame, when known |
+//! | `/map` | `sensor_msgs/PointCloud2` | the merged map (`map.ply`), in `map` |
+//! | `/loops` | `visualization_msgs/MarkerArray` | loop closures as lines in `map`: accepted, rejected by the verifier's check of the alignment (the truncated MSE), rejected as inconsistent (PCM, GNC) or retracted, and undecided, each a namespace and a colour |
+
+use std::path::{Path, PathBuf};
+
+use skid_bag::Encoding;
+use skid_bag::write::viz::{self, FrameTransform, LineListMarker, RosPose, VizType};
+use skid_bag::write::{McapWriter, WrittenType, encode};
+use skid_core::{KeyframeId, Point, Pose, RawPoint};
+
+use crate::RuntimeError;
+use crate::artifacts::output_error;
+use crate::host::{LoopStanding, RobotHost};
+
+/// The loop classes drawn, with their marker namespace and colour (RGBA).
+const LOOP_CLASSES: [(&str, [f32; 4]); 4] = [
+    ("accepted", [0.1, 0.8, 0.2, 1.0]),
+    ("rejected by the alignment check", [1.0, 0.6, 0.0, 1.0]),
+    ("rejected as inconsistent", [0.9, 0.1, 0.1, 1.0]),
+    ("undecided", [0.6, 0.6, 0.6, 1.0]),
+];
+
+fn ros_pose(pose: &Pose) -> RosPose {
+    let wire = skid_core::pose::pose_to_wire(pose);
+    RosPose {
+        translation_m: wire.translation_m,
+        rotation_xyzw: wire.rotation_xyzw,
+    }
+}
+
+fn raw_points(points: &[Point]) -> Vec<RawPoint> {
+    points
+        .iter()
+        .map(|p| RawPoint::new(p.x, p.y, p.z, p.intensity, 0.0, RawPoint::UNKNOWN_RING))
+        .collect()
+}
+
+/// The record's writer with its error mapping.
+struct Record {
+    writer: McapWriter,
+}
+
+impl Record {
+    fn topic(&mut self, name: &str, message_type: &str, definition: &str) -> Result<u16, RuntimeError> {
+        let path = self.writer.path().to_owned();
+        self.writer
+            .add_topic(name, message_type, definition)
+            .map_err(|e| output_error(&path, e))
+    }
+
+    fn write(&mut self, channel: u16, stamp_nanos: u64, data: &[u8]) -> Result<(), RuntimeError> {
+        let path = self.writer.path().to_owned();
+        self.writer
+            .write(channel, stamp_nanos, data)
+            .map_err(|e| output_error(&path, e))
+    }
+
+    fn topic_of(&mut self, name: &str, kind: WrittenType) -> Result<u16, RuntimeError> {
+        self.topic(name, kind.name(Encoding::Cdr), &kind.definition(Encoding::Cdr))
+    }
+
+    fn viz_topic(&mut self, name: &str, kind: VizType) -> Result<u16, RuntimeError> {
+        self.topic(name, kind.name(), &kind.definition())
+    }
+}
+
+/// Writes `<folder>/run.mcap` from the robots' final state; `frames` places each robot's map frame in
+/// robot 0's (as [`crate::artifacts::frames_in_alpha`]), `map` is the merged map.
+pub fn write_run_record(
+    folder: &Path,
+    robots: &[RobotHost],
+    frames: &[Option<Pose>],
+    map: &[Point],
+    voxel_m: f64,
+) -> Result<PathBuf, RuntimeError> {
+    let path = folder.join("run.mcap");
+    let writer = McapWriter::create(&path).map_err(|e| output_error(&path, e))?;
+    let mut record = Record { writer };
+    let stamps = robots.iter().flat_map(|r| r.scans.iter().map(|s| s.stamp_nanos));
+    let (first_nanos, last_nanos) = stamps.fold((u64::MAX, 0), |(lo, hi), s| (lo.min(s), hi.max(s)));
+    let first_nanos = first_nanos.min(last_nanos);
+
+    let tf_static = record.viz_topic("/tf_static", VizType::TfMessage)?;
+    let placed: Vec<FrameTransform> = robots
+        .iter()
+        .zip(frames)
+        .filter_map(|(robot, frame)| {
+            Some(FrameTransform {
+                stamp_nanos: first_nanos,
+                parent: "map".to_owned(),
+                child: format!("robot{}/map", robot.robot.0),
+                parent_from_child: ros_pose(frame.as_ref()?),
+            })
+        })
+        .collect();
+    record.write(tf_static, first_nanos, &viz::tf_message(&placed))?;
+
+    let tf = record.viz_topic("/tf", VizType::TfMessage)?;
+    for robot in robots {
+        write_robot(&mut record, tf, robot, voxel_m as f32, last_nanos)?;
+    }
+
+    let map_topic = record.topic_of("/map", WrittenType::PointCloud2)?;
+    let cloud = encode::point_cloud2(Encoding::Cdr, 0, last_nanos, "map", &raw_points(map));
+    record.write(map_topic, last_nanos, &cloud)?;
+
+    let loops_topic = record.viz_topic("/loops", VizType::MarkerArray)?;
+    let markers = loop_markers(robots, frames);
+    record.write(
+        loops_topic,
+        last_nanos,
+        &viz::line_markers(last_nanos, "map", &markers),
+    )?;
+
+    let written = record.writer.finish().map_err(|e| output_error(&path, e))?;
+    Ok(written.path)
+}
+
+/// One robot's odometry, transforms, keyframe clouds, optimised path and ground truth.
+fn write_robot(
+    record: &mut Record,
+    tf: u16,
+    robot: &RobotHost,
+    voxel_m: f32,
+    last_nanos: u64,
+) -> Result<(), RuntimeError> {
+    let name = format!("robot{}", robot.robot.0);
+    let (map_frame, odom_frame, sensor_frame) = (
+        format!("{name}/map"),
+        format!("{name}/odom"),
+        format!("{name}/base_link"),
+    );
+    let odometry = record.topic_of(&format!("/{name}/odometry"), WrittenType::Odometry)?;
+    let optimised = robot.optimised_trajectory();
+    for (sequence, (scan, (_, corrected))) in robot.scans.iter().zip(&optimised).enumerate() {
+        let pose = ros_pose(&scan.world_from_sensor);
+        let frames = (odom_frame.as_str(), sensor_frame.as_str());
+        let message = encode::odometry(
+            Encoding::Cdr,
+            sequence as u32,
+            scan.stamp_nanos,
+            frames,
+            pose.translation_m,
+            pose.rotation_xyzw,
+        );
+        record.write(odometry, scan.stamp_nanos, &message)?;
+        let correction = corrected * scan.world_from_sensor.inverse();
+        let transforms = [
+            FrameTransform {
+                stamp_nanos: scan.stamp_nanos,
+                parent: odom_frame.clone(),
+                child: sensor_frame.clone(),
+                parent_from_child: pose,
+            },
+            FrameTransform {
+                stamp_nanos: scan.stamp_nanos,
+                parent: map_frame.clone(),
+                child: odom_frame.clone(),
+                parent_from_child: ros_pose(&correction),
+            },
+        ];
+        record.write(tf, scan.stamp_nanos, &viz::tf_message(&transforms))?;
+    }
+
+    let keyframes = record.topic_of(&format!("/{name}/keyframes"), WrittenType::PointCloud2)?;
+    for (&index, keyframe) in &robot.keyframes {
+        let Some(pose) = robot.keyframe_pose(index) else {
+            continue;
+        };
+        let cloud = keyframe.cloud.view().transformed(&pose);
+        let thinned = skid_geometry::voxel_downsample(&cloud.points, voxel_m);
+        let message = encode::point_cloud2(
+            Encoding::Cdr,
+            index,
+            keyframe.stamp_nanos,
+            &map_frame,
+            &raw_points(&thinned),
+        );
+        record.write(keyframes, keyframe.stamp_nanos, &message)?;
+    }
+
+    let path_topic = record.viz_topic(&format!("/{name}/path"), VizType::Path)?;
+    let poses: Vec<(u64, RosPose)> = optimised
+        .iter()
+        .map(|(stamp, pose)| (*stamp, ros_pose(pose)))
+        .collect();
+    record.write(path_topic, last_nanos, &viz::path(last_nanos, &map_frame, &poses))?;
+
+    let truth: Vec<(u64, RosPose)> = robot
+        .scans
+        .iter()
+        .filter_map(|scan| Some((scan.stamp_nanos, ros_pose(scan.ground_truth.as_ref()?))))
+        .collect();
+    if !truth.is_empty() {
+        let truth_topic = record.viz_topic(&format!("/{name}/ground_truth"), VizType::Path)?;
+        record.write(truth_topic, last_nanos, &viz::path(last_nanos, "world", &truth))?;
+    }
+    Ok(())
+}
+
+/// Where a keyframe sits in robot 0's map frame, when its robot's frame is known there.
+fn keyframe_in_map(robots: &[RobotHost], frames: &[Option<Pose>], id: KeyframeId) -> Option<[f64; 3]> {
+    let position = robots.iter().position(|robot| robot.robot == id.robot)?;
+    let frame = frames.get(position).copied().flatten()?;
+    let translation = (frame * robots[position].keyframe_pose(id.index)?)
+        .translation
+        .vector;
+    Some([translation.x, translation.y, translation.z])
+}
+
+/// Which of [`LOOP_CLASSES`] a loop belongs to, given its standing and, when rejected, the reason.
+fn loop_class(standing: LoopStanding, rejection_reason: Option<&str>) -> usize {
+    match standing {
+        LoopStanding::Accepted => 0,
+        LoopStanding::Undecided => 3,
+        // The PCM verifier names its alignment check's refusals `truncated MSE: …`; every other
+        // refusal (consistency, retraction) is a judgement on the loop against the others.
+        LoopStanding::Rejected if rejection_reason.is_some_and(|r| r.starts_with("truncated MSE")) => 1,
+        LoopStanding::Rejected => 2,
+    }
+}
+
+/// Every robot's submitted loops as line lists, one per class.
+fn loop_markers(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<LineListMarker> {
+    let mut markers: Vec<LineListMarker> = LOOP_CLASSES
+        .iter()
+        .enumerate()
+        .map(|(id, (namespace, rgba))| LineListMarker {
+            namespace: (*namespace).to_owned(),
+            id: id as i32,
+            rgba: *rgba,
+            line_width_m: 0.3,
+            segments: Vec::new(),
+        })
+        .collect();
+    for robot in robots {
+        for (&id, &(_, standing)) in &robot.loop_standing {
+            let Some(closure) = robot.loops.get(&id).or_else(|| robot.pending_closures.get(&id)) else {
+                continue;
+            };
+            let ends = (
+                keyframe_in_map(robots, frames, closure.target),
+                keyframe_in_map(robots, frames, closure.source),
+            );
+            if let (Some(target), Some(source)) = ends {
+                let reason = robot.rejection_reasons.get(&id).map(String::as_str);
+                markers[loop_class(standing, reason)]
+                    .segments
+                    .push((target, source));
+            }
+        }
+    }
+    markers
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loops_are_classed_by_standing_and_rejection_reason() {
+        let class = |standing, reason| LOOP_CLASSES[loop_class(standing, reason)].0;
+        assert_eq!(class(LoopStanding::Accepted, None), "accepted");
+        assert_eq!(class(LoopStanding::Undecided, None), "undecided");
+        let mse = Some("truncated MSE: 0.4 m² above 0.25 m²");
+        assert_eq!(
+            class(LoopStanding::Rejected, mse),
+            "rejected by the alignment check"
+        );
+        let retracted = Some("retracted: no longer consistent with the others");
+        assert_eq!(
+            class(LoopStanding::Rejected, retracted),
+            "rejected as inconsistent"
+        );
+        assert_eq!(class(LoopStanding::Rejected, None), "rejected as inconsistent");
+    }
+}
