@@ -95,6 +95,11 @@ enum Command {
         #[command(flatten)]
         layers: LayerArgs,
     },
+    /// Draw a run's plots again (trajectories.png, errors.png, map.png) from its record, RUN_DIR/run.mcap.
+    Plot {
+        /// The run's folder (`runs/<name>`).
+        run_dir: PathBuf,
+    },
     /// Trajectory errors of EST against GT (TUM or KITTI files): ATE/ARE after alignment, RPE, drift.
     Eval {
         /// Ground-truth trajectory (TUM or KITTI poses, detected from the content).
@@ -354,6 +359,7 @@ fn main() -> ExitCode {
             layers,
         } => commands::tools::register(&registry, &target, &source, Some(&coarse), Some(&fine), &layers),
         Command::Eval { gt, est, align } => commands::extra::eval(&gt, &est, &align),
+        Command::Plot { run_dir } => commands::plot::plot(&run_dir),
         Command::Pgo {
             file,
             robust,

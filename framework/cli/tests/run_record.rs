@@ -169,6 +169,43 @@ fn the_run_record_opens_in_an_independent_reader_and_agrees_with_the_run() {
 }
 
 #[test]
+fn skid_plot_draws_the_plots_again_from_the_record() {
+    let out = tempfile::tempdir().unwrap();
+    run(out.path(), &[]);
+    let folder = out.path().join("recorded");
+    let plots = ["trajectories.png", "errors.png", "map.png"];
+    for plot in plots {
+        assert!(folder.join(plot).is_file(), "the run wrote no {plot}");
+        std::fs::remove_file(folder.join(plot)).unwrap();
+    }
+    let output = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .arg("plot")
+        .arg(&folder)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let listed = String::from_utf8_lossy(&output.stdout);
+    for plot in plots {
+        let bytes = std::fs::read(folder.join(plot)).unwrap();
+        assert!(bytes.starts_with(b"\x89PNG") && bytes.len() > 5_000, "{plot}");
+        assert!(listed.contains(plot), "{listed}");
+    }
+    // A folder without a record is a clear error.
+    std::fs::remove_file(folder.join("run.mcap")).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .arg("plot")
+        .arg(&folder)
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    assert!(String::from_utf8_lossy(&output.stderr).contains("has no run.mcap"));
+}
+
+#[test]
 fn the_record_can_be_turned_off() {
     let out = tempfile::tempdir().unwrap();
     run(out.path(), &["output.record=false"]);

@@ -1,25 +1,22 @@
 //! The run's derived artefacts: the merged map (every robot's keyframe clouds at their optimised poses,
-//! in robot 0's frame, voxel-downsampled), each robot's pose graph as g2o, and the PNG plots (top-down
-//! trajectories against ground truth; the map).
+//! in robot 0's frame, voxel-downsampled), each robot's pose graph as g2o, and the PNG plots (every
+//! robot's trajectory and the loops against ground truth, errors over time, the map by robot).
 
 use std::path::{Path, PathBuf};
 
 use skid_core::slots::{GraphView, LoopClosure};
 use skid_core::{KeyframeId, Point, Pose};
-use skid_eval::plot::PlotOptions;
-use skid_eval::{AlignmentKind, ape, plot};
+use skid_eval::plot;
+use skid_eval::plot::{LoopClass, LoopLine, PlotOptions, RobotTrack, RunPlotData};
 use skid_io::g2o::{Edge, PoseGraph, write_g2o_3d};
 
 use crate::RuntimeError;
-use crate::host::RobotHost;
-use crate::metrics::{alpha_frames, associated};
+use crate::host::{LoopStanding, RobotHost};
+use crate::metrics::alpha_frames;
 use crate::settings::{information_from_covariance, loop_information};
 
 /// Edge length of the merged map's voxels, metres.
 pub const MAP_VOXEL_M: f32 = 0.5;
-
-/// Most points drawn in the map plot; the PLY keeps them all.
-const PLOT_POINTS: usize = 300_000;
 
 /// g2o vertex id of a keyframe: the robot in the millions, so ids stay readable.
 pub fn g2o_vertex_id(id: KeyframeId) -> u64 {
@@ -139,63 +136,58 @@ pub fn write_pose_graphs(folder: &Path, robots: &[RobotHost]) -> Result<Vec<Path
     Ok(written)
 }
 
-/// Writes `trajectories.png` (each robot after its own SE(3) alignment, over its ground truth) and
-/// `map.png` (the merged map seen from above with the robots' trajectories in robot 0's frame).
-pub fn write_plots(
-    folder: &Path,
-    robots: &[RobotHost],
-    frames: &[Option<Pose>],
-    map: &[Point],
-) -> Result<(), RuntimeError> {
-    let options = PlotOptions::default();
-    let mut named: Vec<(String, Vec<Pose>)> = Vec::new();
-    for robot in robots {
-        let (truth, estimate) = associated(robot);
-        if truth.len() < 3 {
-            continue;
-        }
-        if let Ok(result) = ape(&truth, &estimate, AlignmentKind::Se3) {
-            named.push((format!("robot {} ground truth", robot.robot.0), truth));
-            named.push((format!("robot {} estimate", robot.robot.0), result.est_aligned));
-        }
-    }
-    if !named.is_empty() {
-        let path = folder.join("trajectories.png");
-        let series: Vec<(&str, &[Pose])> = named.iter().map(|(n, p)| (n.as_str(), p.as_slice())).collect();
-        plot::trajectory_plot(
-            &path,
-            "trajectories (each aligned to its ground truth)",
-            &series,
-            false,
-            &options,
-        )
-        .map_err(|e| output_error(&path, e))?;
-    }
-    if map.is_empty() {
-        return Ok(());
-    }
-    let stride = map.len().div_ceil(PLOT_POINTS).max(1);
-    let points: Vec<[f64; 3]> = map
-        .iter()
-        .step_by(stride)
-        .map(|p| [f64::from(p.x), f64::from(p.y), f64::from(p.z)])
-        .collect();
-    let in_alpha: Vec<(String, Vec<Pose>)> = robots
+/// Everything the run plots show, from the robots' final state: trajectories in each robot's map frame,
+/// where robot 0's frame holds each, ground truth, each robot's keyframe clouds (voxel-downsampled) and
+/// the loops placed in robot 0's frame.
+pub fn run_plot_data(robots: &[RobotHost], frames: &[Option<Pose>]) -> RunPlotData {
+    let tracks = robots
         .iter()
         .zip(frames)
-        .filter_map(|(robot, frame)| {
-            let frame = (*frame)?;
-            let poses = robot
-                .optimised_trajectory()
+        .map(|(robot, frame)| {
+            let mut cloud: Vec<Point> = Vec::new();
+            for (&index, keyframe) in &robot.keyframes {
+                if let Some(pose) = robot.keyframe_pose(index) {
+                    cloud.extend_from_slice(&keyframe.cloud.view().transformed(&pose).points);
+                }
+            }
+            let map_points = skid_geometry::voxel_downsample(&cloud, MAP_VOXEL_M)
                 .iter()
-                .map(|(_, pose)| frame * pose)
+                .map(|p| [f64::from(p.x), f64::from(p.y), f64::from(p.z)])
                 .collect();
-            Some((format!("robot {}", robot.robot.0), poses))
+            RobotTrack {
+                name: format!("robot {}", robot.robot.0),
+                trajectory: robot.optimised_trajectory(),
+                map_from_robot: *frame,
+                ground_truth: robot
+                    .scans
+                    .iter()
+                    .filter_map(|scan| Some((scan.stamp_nanos, scan.ground_truth?)))
+                    .collect(),
+                map_points,
+            }
         })
         .collect();
-    let series: Vec<(&str, &[Pose])> = in_alpha.iter().map(|(n, p)| (n.as_str(), p.as_slice())).collect();
-    let path = folder.join("map.png");
-    plot::point_map(&path, "merged map (robot 0's frame)", &points, &series, &options)
-        .map_err(|e| output_error(&path, e))?;
+    let loops = crate::loop_lines::placed_loops(robots, frames)
+        .into_iter()
+        .map(|line| LoopLine {
+            class: match line.standing {
+                LoopStanding::Accepted => LoopClass::Accepted,
+                LoopStanding::Rejected => LoopClass::Rejected,
+                LoopStanding::Undecided => LoopClass::Undecided,
+            },
+            from_m: line.target_m,
+            to_m: line.source_m,
+        })
+        .collect();
+    RunPlotData {
+        robots: tracks,
+        loops,
+    }
+}
+
+/// Writes `trajectories.png`, `errors.png` and `map.png` (see [`skid_eval::plot::write_run_plots`]).
+pub fn write_plots(folder: &Path, robots: &[RobotHost], frames: &[Option<Pose>]) -> Result<(), RuntimeError> {
+    let data = run_plot_data(robots, frames);
+    plot::write_run_plots(folder, &data, &PlotOptions::default()).map_err(|e| output_error(folder, e))?;
     Ok(())
 }

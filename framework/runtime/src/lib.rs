@@ -15,6 +15,7 @@ mod fleet;
 mod frontend;
 mod graph;
 mod host;
+mod loop_lines;
 mod loops;
 mod metrics;
 mod outputs;

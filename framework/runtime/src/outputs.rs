@@ -74,7 +74,7 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<(PathBuf, Ru
         let path = folder.join("map.ply");
         write_ply(&path, &map, PlyFormat::BinaryLittleEndian).map_err(|e| output_error(&path, e))?;
     }
-    write_plots(&folder, &fleet.robots, &frames, &map)?;
+    write_plots(&folder, &fleet.robots, &frames)?;
     if fleet.config.output.record {
         let voxel_m = fleet.config.output.record_voxel_m;
         crate::run_record::write_run_record(&folder, &fleet.robots, &frames, &map, voxel_m)?;

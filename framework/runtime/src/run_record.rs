@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use skid_bag::Encoding;
 use skid_bag::write::viz::{self, FrameTransform, LineListMarker, RosPose, VizType};
 use skid_bag::write::{McapWriter, WrittenType, encode};
-use skid_core::{KeyframeId, Point, Pose, RawPoint};
+use skid_core::{Point, Pose, RawPoint};
 
 use crate::RuntimeError;
 use crate::artifacts::output_error;
@@ -212,16 +212,6 @@ fn write_robot(
     Ok(())
 }
 
-/// Where a keyframe sits in robot 0's map frame, when its robot's frame is known there.
-fn keyframe_in_map(robots: &[RobotHost], frames: &[Option<Pose>], id: KeyframeId) -> Option<[f64; 3]> {
-    let position = robots.iter().position(|robot| robot.robot == id.robot)?;
-    let frame = frames.get(position).copied().flatten()?;
-    let translation = (frame * robots[position].keyframe_pose(id.index)?)
-        .translation
-        .vector;
-    Some([translation.x, translation.y, translation.z])
-}
-
 /// Which of [`LOOP_CLASSES`] a loop belongs to, given its standing and, when rejected, the reason.
 fn loop_class(standing: LoopStanding, rejection_reason: Option<&str>) -> usize {
     match standing {
@@ -247,22 +237,9 @@ fn loop_markers(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<LineListMa
             segments: Vec::new(),
         })
         .collect();
-    for robot in robots {
-        for (&id, &(_, standing)) in &robot.loop_standing {
-            let Some(closure) = robot.loops.get(&id).or_else(|| robot.pending_closures.get(&id)) else {
-                continue;
-            };
-            let ends = (
-                keyframe_in_map(robots, frames, closure.target),
-                keyframe_in_map(robots, frames, closure.source),
-            );
-            if let (Some(target), Some(source)) = ends {
-                let reason = robot.rejection_reasons.get(&id).map(String::as_str);
-                markers[loop_class(standing, reason)]
-                    .segments
-                    .push((target, source));
-            }
-        }
+    for line in crate::loop_lines::placed_loops(robots, frames) {
+        let class = loop_class(line.standing, line.rejection_reason);
+        markers[class].segments.push((line.target_m, line.source_m));
     }
     markers
 }

@@ -4,5 +4,6 @@
 
 pub mod definition;
 pub mod livox;
+pub mod markers;
 pub mod motion;
 pub mod point_cloud2;

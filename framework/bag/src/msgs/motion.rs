@@ -95,3 +95,15 @@ pub fn decode_tf_message(reader: &mut WireReader<'_>) -> Result<Vec<StampedPose>
     }
     Ok(transforms)
 }
+
+/// `nav_msgs/Path`: its poses, each with its own stamp and the path's frame.
+pub fn decode_path(reader: &mut WireReader<'_>) -> Result<Vec<StampedPose>, DecodeError> {
+    reader.header()?;
+    // A PoseStamped takes at least a header (12 bytes) and 7 doubles.
+    let count = reader.sequence_len(68)?;
+    let mut poses = Vec::with_capacity(count);
+    for _ in 0..count {
+        poses.push(decode_pose_stamped(reader)?);
+    }
+    Ok(poses)
+}

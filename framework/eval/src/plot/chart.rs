@@ -134,6 +134,20 @@ pub fn draw_chart(path: &Path, chart: &Chart, options: &PlotOptions) -> Result<P
                 SeriesStyle::Pixels => context
                     .draw_series(data.map(|p| Pixel::new(p, color)))
                     .map_err(|e| fail(e.to_string()))?,
+                SeriesStyle::DashedLine => context
+                    .draw_series(DashedLineSeries::new(data, 6, 4, color.stroke_width(2)))
+                    .map_err(|e| fail(e.to_string()))?,
+                SeriesStyle::Segments => context
+                    .draw_series(
+                        series
+                            .points
+                            .chunks_exact(2)
+                            .map(|pair| PathElement::new(vec![pair[0], pair[1]], color.stroke_width(1))),
+                    )
+                    .map_err(|e| fail(e.to_string()))?,
+                SeriesStyle::Rings => context
+                    .draw_series(data.map(|p| Circle::new(p, 7, color.stroke_width(3))))
+                    .map_err(|e| fail(e.to_string()))?,
             };
             if let (Some(name), true) = (&series.name, text) {
                 any_named = true;

@@ -9,6 +9,7 @@
 
 mod chart;
 mod font;
+mod run;
 
 use std::path::{Path, PathBuf};
 
@@ -16,6 +17,7 @@ use serde::{Deserialize, Serialize};
 
 pub use chart::{draw_chart, line_plot, point_map, pr_curve_plot, trajectory_plot};
 pub use font::{FONT_VAR, font_available};
+pub use run::{LoopClass, LoopLine, RobotTrack, RunPlotData, write_run_plots};
 
 use crate::error::EvalError;
 
@@ -52,6 +54,12 @@ pub enum SeriesStyle {
     Points,
     /// One pixel per point (dense point maps).
     Pixels,
+    /// A dashed polyline (ground truth under estimates).
+    DashedLine,
+    /// A thin line per consecutive pair of points, `(p0, p1), (p2, p3), …` (loop closures).
+    Segments,
+    /// A large ring per point (where a robot started).
+    Rings,
 }
 
 /// One named series of `(x, y)` points.
