@@ -76,8 +76,15 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<(PathBuf, Ru
     }
     write_plots(&folder, &fleet.robots, &frames)?;
     if fleet.config.output.record {
+        let started = std::time::Instant::now();
         let voxel_m = fleet.config.output.record_voxel_m;
-        crate::run_record::write_run_record(&folder, &fleet.robots, &frames, &map, voxel_m)?;
+        let path = crate::run_record::write_run_record(&folder, &fleet.robots, &frames, &map, voxel_m)?;
+        let bytes = std::fs::metadata(&path).map_or(0, |m| m.len());
+        tracing::info!(
+            bytes,
+            seconds = started.elapsed().as_secs_f64(),
+            "wrote the run record run.mcap"
+        );
     }
     let metrics = RunMetrics::with_frames(&fleet.config.run.name, &fleet.robots, &fits);
     write_json(&folder.join("metrics.json"), &metrics)?;
