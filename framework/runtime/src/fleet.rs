@@ -95,10 +95,7 @@ pub(crate) fn build_host(
         plugin: "none".into(),
         source: PluginError::InvalidInput("a source is required".into()),
     })?;
-    let context = PluginContext {
-        source_provides_imu: source.provides_imu(),
-        ..context
-    };
+    let context = context.after_source(source.as_ref());
     let plugins = Plugins {
         source,
         odometry: build(&registry.odometry, config, &context)?,

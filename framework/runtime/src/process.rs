@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use skid_config::ResolvedConfig;
 use skid_core::msgs::PoseWire;
 use skid_core::pose::pose_to_wire;
-use skid_core::{Cloud, Keyframe, KeyframeId, PluginContext, PluginError, Pose, Registry, RobotId, Slot};
+use skid_core::{Cloud, Keyframe, KeyframeId, PluginError, Pose, Registry, RobotId, Slot};
 use skid_ipc::{
     FrontEndHeader, FrontEndScans, FrontEndStatus, ProcessNode, TopicPublisher, TopicSubscriber, ipc,
 };
@@ -399,10 +399,7 @@ pub fn run_front_end_stage(
     let context = plugin_context(config, robot);
     let source = build(&registry.source, config, &context)?
         .ok_or_else(|| stage_error(robot, "a source is required"))?;
-    let context = PluginContext {
-        source_provides_imu: source.provides_imu(),
-        ..context
-    };
+    let context = context.after_source(source.as_ref());
     let mut front_end = FrontEnd {
         source,
         odometry: build(&registry.odometry, config, &context)?,

@@ -157,10 +157,7 @@ pub fn odometry(registry: &Registry, folder: &Path, out: Option<&Path>, layers: 
     let source = registry
         .source
         .create(source_name, &config.slot(Slot::Source).params, &context)?;
-    let context = PluginContext {
-        source_provides_imu: source.provides_imu(),
-        ..context
-    };
+    let context = context.after_source(source.as_ref());
     let odometry = registry
         .odometry
         .create(&odometry_name, &config.slot(Slot::Odometry).params, &context)?;

@@ -38,6 +38,17 @@ pub struct PluginContext {
     pub source_provides_imu: bool,
 }
 
+impl PluginContext {
+    /// This context for the plugins built after `source`: the same, knowing whether it provides IMU
+    /// samples.
+    pub fn after_source(self, source: &dyn Source) -> Self {
+        Self {
+            source_provides_imu: source.provides_imu(),
+            ..self
+        }
+    }
+}
+
 impl Default for PluginContext {
     fn default() -> Self {
         Self {
