@@ -126,6 +126,19 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Pairwise consistency maximisation on a multi-robot pose graph: per-robot g2o files (or folders of
+    /// them) with GTSAM symbol keys; prints the accepted loop closures and the time.
+    Pcm {
+        /// g2o files, or folders whose .g2o files are all read.
+        #[arg(required = true)]
+        paths: Vec<PathBuf>,
+        /// Replace the files' information matrices by identities.
+        #[arg(long)]
+        unit_covariance: bool,
+        /// One JSON line instead of the text.
+        #[arg(long)]
+        json: bool,
+    },
     /// Inspect ROS bags and MCAP files.
     #[command(subcommand)]
     Bag(BagCommand),
@@ -360,6 +373,11 @@ fn main() -> ExitCode {
         } => commands::tools::register(&registry, &target, &source, Some(&coarse), Some(&fine), &layers),
         Command::Eval { gt, est, align } => commands::extra::eval(&gt, &est, &align),
         Command::Plot { run_dir } => commands::plot::plot(&run_dir),
+        Command::Pcm {
+            paths,
+            unit_covariance,
+            json,
+        } => commands::pcm::pcm(&paths, unit_covariance, json),
         Command::Pgo {
             file,
             robust,

@@ -2,6 +2,7 @@
 
 pub mod bag;
 pub mod extra;
+pub mod pcm;
 pub mod plot;
 pub mod robot;
 pub mod sim_bag;
