@@ -135,6 +135,9 @@ enum Command {
         /// Replace the files' information matrices by identities.
         #[arg(long)]
         unit_covariance: bool,
+        /// Then optimise the odometry and the accepted loops: gnc (graduated non-convexity, TLS).
+        #[arg(long, value_parser = ["gnc"])]
+        then: Option<String>,
         /// One JSON line instead of the text.
         #[arg(long)]
         json: bool,
@@ -376,8 +379,9 @@ fn main() -> ExitCode {
         Command::Pcm {
             paths,
             unit_covariance,
+            then,
             json,
-        } => commands::pcm::pcm(&paths, unit_covariance, json),
+        } => commands::pcm::pcm(&paths, unit_covariance, then.is_some(), json),
         Command::Pgo {
             file,
             robust,

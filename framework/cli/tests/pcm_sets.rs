@@ -1,7 +1,7 @@
 //! `skid pcm` on the shared multi-robot PCM sets (robust_distributed_mapper's
 //! `pairwise_consistency_maximization` test data, per-robot g2o files with GTSAM symbol keys): the
-//! accepted counts its own tests expect, the loops named by their keys, and clear errors for a missing
-//! folder and for keys without a robot letter.
+//! accepted counts its own tests expect, the loops named by their keys, GNC after PCM on the accepted
+//! loops only, and clear errors for a missing folder and for keys without a robot letter.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // Test helpers fail loudly by design.
 
@@ -45,6 +45,29 @@ fn pcm_accepts_the_counts_the_sets_expect() {
         }
         assert!(line["verify_ms"].as_f64().unwrap() >= 0.0);
     }
+}
+
+#[test]
+fn then_gnc_optimises_the_odometry_and_the_accepted_loops() {
+    let set = sets_root().join("spoiled/simulation/example_4robots");
+    let output = pcm(&[&set], &["--then", "gnc", "--json"]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let line: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let gnc = &line["gnc"];
+    assert_eq!(gnc["robust"], "gnc", "{gnc}");
+    assert_eq!(
+        gnc["loop_edges"], 24,
+        "only the accepted loops enter the graph: {gnc}"
+    );
+    assert_eq!(gnc["converged"], true, "{gnc}");
+    assert!(
+        gnc["final_cost"].as_f64().unwrap() < gnc["start_cost"].as_f64().unwrap(),
+        "{gnc}"
+    );
 }
 
 #[test]

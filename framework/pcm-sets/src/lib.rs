@@ -228,3 +228,24 @@ pub fn verify_set(
     let result = run_pcm(&set, &set_params(), unit_covariance)?;
     Ok((set, result))
 }
+
+/// The set's graph keeping its odometry and only the loops PCM accepted, to optimise after PCM.
+pub fn accepted_graph(set: &MultiRobotGraph, result: &PcmSetResult) -> Result<PoseGraph3, PcmSetError> {
+    let accepted: BTreeSet<(u64, u64)> = result
+        .accepted
+        .iter()
+        .map(|set_loop| (set_loop.from_key, set_loop.to_key))
+        .collect();
+    let mut graph = PoseGraph3 {
+        edges: Vec::new(),
+        ..set.graph.clone()
+    };
+    for edge in &set.graph.edges {
+        let (from, to) = (keyframe_of_key(edge.from)?, keyframe_of_key(edge.to)?);
+        let odometry = from.robot == to.robot && to.index == from.index + 1;
+        if odometry || accepted.contains(&(edge.from, edge.to)) {
+            graph.edges.push(*edge);
+        }
+    }
+    Ok(graph)
+}

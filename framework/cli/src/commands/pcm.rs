@@ -1,18 +1,33 @@
 //! `skid pcm DIR|FILE…`: pairwise consistency maximisation on a multi-robot pose graph given as per-robot
 //! g2o files with GTSAM symbol keys (see `skid-pcm-sets`): prints the loops PCM accepts, with their ids
-//! and keys, and the time it took; `--json` prints one JSON line instead.
+//! and keys, and the time it took; `--then gnc` optimises the odometry and the accepted loops with GNC
+//! afterwards; `--json` prints one JSON line instead.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+use skid_backend_pgo::{PgoOptions, PgoReport, RobustMode};
 use skid_pcm_sets::key_name;
 
-pub fn pcm(paths: &[PathBuf], unit_covariance: bool, json: bool) -> Result<()> {
+/// Optimises the set's odometry and PCM's accepted loops with GNC (truncated least squares on the loops).
+fn then_gnc(set: &skid_pcm_sets::MultiRobotGraph, result: &skid_pcm_sets::PcmSetResult) -> Result<PgoReport> {
+    let mut graph = skid_pcm_sets::accepted_graph(set, result)?;
+    let options = PgoOptions {
+        robust: RobustMode::parse("gnc")?,
+        ..PgoOptions::default()
+    };
+    let mut report = skid_backend_pgo::optimize_pose_graph::<_, 6>(&mut graph, &options)?;
+    report.costs.clear();
+    Ok(report)
+}
+
+pub fn pcm(paths: &[PathBuf], unit_covariance: bool, gnc: bool, json: bool) -> Result<()> {
     let (set, result) =
         skid_pcm_sets::verify_set(paths, unit_covariance).context("verifying the multi-robot graph")?;
     for (file, line) in &set.skipped_lines {
         tracing::warn!(file = %file.display(), line, "skipped a malformed line");
     }
+    let optimised = if gnc { Some(then_gnc(&set, &result)?) } else { None };
     if json {
         let accepted: Vec<serde_json::Value> = result
             .accepted
@@ -26,6 +41,7 @@ pub fn pcm(paths: &[PathBuf], unit_covariance: bool, json: bool) -> Result<()> {
             "loops": result.loops.len(),
             "accepted": accepted,
             "verify_ms": result.verify_ms,
+            "gnc": optimised,
         });
         println!("{line}");
         return Ok(());
@@ -45,6 +61,17 @@ pub fn pcm(paths: &[PathBuf], unit_covariance: bool, json: bool) -> Result<()> {
             accepted.id,
             key_name(accepted.from_key),
             key_name(accepted.to_key)
+        );
+    }
+    if let Some(report) = optimised {
+        println!(
+            "then GNC: {} iterations, cost {:.6} -> {:.6}, {} loops judged outliers, {:.3} s ({})",
+            report.iterations,
+            report.start_cost,
+            report.final_cost,
+            report.outliers,
+            report.time_s,
+            report.stop
         );
     }
     Ok(())
