@@ -7,11 +7,11 @@ use std::path::{Path, PathBuf};
 use skid_core::slots::{GraphView, LoopClosure};
 use skid_core::{KeyframeId, Point, Pose};
 use skid_eval::plot;
-use skid_eval::plot::{LoopClass, LoopLine, PlotOptions, RobotTrack, RunPlotData};
+use skid_eval::plot::{LoopLine, PlotOptions, RobotTrack, RunPlotData};
 use skid_io::g2o::{Edge, PoseGraph, write_g2o_3d};
 
 use crate::RuntimeError;
-use crate::host::{LoopStanding, RobotHost};
+use crate::host::RobotHost;
 use crate::metrics::alpha_frames;
 use crate::settings::{information_from_covariance, loop_information};
 
@@ -170,11 +170,7 @@ pub fn run_plot_data(robots: &[RobotHost], frames: &[Option<Pose>]) -> RunPlotDa
     let loops = crate::loop_lines::placed_loops(robots, frames)
         .into_iter()
         .map(|line| LoopLine {
-            class: match line.standing {
-                LoopStanding::Accepted => LoopClass::Accepted,
-                LoopStanding::Rejected => LoopClass::Rejected,
-                LoopStanding::Undecided => LoopClass::Undecided,
-            },
+            class: crate::loop_lines::LOOP_CLASSES[line.class].2,
             from_m: line.target_m,
             to_m: line.source_m,
         })

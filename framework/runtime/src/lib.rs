@@ -34,6 +34,7 @@ pub use fleet::Fleet;
 pub use frontend::{FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome, ThreadFeed};
 pub use graph::HostGraph;
 pub use host::{LoopStats, Plugins, RobotHost, ScanRecord};
+pub use loop_lines::loop_class_of_namespace;
 pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};
 pub use outputs::write_outputs;
 pub use process::{CRASH_AFTER_VAR, ProcessFeed, STAGE_EXE_VAR, exit_when_host_exits, run_front_end_stage};

@@ -1,15 +1,51 @@
-//! Every loop the robots submitted, placed in robot 0's map frame with where it stands: what the run
-//! record's markers and the plots draw.
+//! Every loop the robots submitted, placed in robot 0's map frame and classed by where it stands: what
+//! the run record's `/loops` markers and the plots draw, from one table of classes.
 
 use skid_core::{KeyframeId, Pose};
+use skid_eval::plot::LoopClass;
 
 use crate::host::{LoopStanding, RobotHost};
 
+/// The loop classes drawn: the record's marker namespace and colour (RGBA), and the plots' class.
+pub(crate) const LOOP_CLASSES: [(&str, [f32; 4], LoopClass); 4] = [
+    ("accepted", [0.1, 0.8, 0.2, 1.0], LoopClass::Accepted),
+    (
+        "rejected by the alignment check",
+        [1.0, 0.6, 0.0, 1.0],
+        LoopClass::Rejected,
+    ),
+    (
+        "rejected as inconsistent",
+        [0.9, 0.1, 0.1, 1.0],
+        LoopClass::Rejected,
+    ),
+    ("undecided", [0.6, 0.6, 0.6, 1.0], LoopClass::Undecided),
+];
+
+/// Which of [`LOOP_CLASSES`] a loop belongs to, given its standing and, when rejected, the reason.
+fn loop_class(standing: LoopStanding, rejection_reason: Option<&str>) -> usize {
+    match standing {
+        LoopStanding::Accepted => 0,
+        LoopStanding::Undecided => 3,
+        // The PCM verifier names its alignment check's refusals `truncated MSE: …`; every other
+        // refusal (consistency, retraction) is a judgement on the loop against the others.
+        LoopStanding::Rejected if rejection_reason.is_some_and(|r| r.starts_with("truncated MSE")) => 1,
+        LoopStanding::Rejected => 2,
+    }
+}
+
+/// The plots' class of a `/loops` marker namespace the record writes, `None` for any other.
+pub fn loop_class_of_namespace(namespace: &str) -> Option<LoopClass> {
+    LOOP_CLASSES
+        .iter()
+        .find(|(name, _, _)| *name == namespace)
+        .map(|(_, _, class)| *class)
+}
+
 /// One submitted loop between two keyframe positions in robot 0's map frame.
-pub(crate) struct PlacedLoop<'a> {
-    pub standing: LoopStanding,
-    /// Why the verifier refused it, when it stands rejected.
-    pub rejection_reason: Option<&'a str>,
+pub(crate) struct PlacedLoop {
+    /// Its index in [`LOOP_CLASSES`].
+    pub class: usize,
     pub target_m: [f64; 3],
     pub source_m: [f64; 3],
 }
@@ -25,7 +61,7 @@ fn keyframe_in_map(robots: &[RobotHost], frames: &[Option<Pose>], id: KeyframeId
 }
 
 /// The loops whose two robots are both placed in robot 0's frame (`frames`, one per robot).
-pub(crate) fn placed_loops<'a>(robots: &'a [RobotHost], frames: &[Option<Pose>]) -> Vec<PlacedLoop<'a>> {
+pub(crate) fn placed_loops(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<PlacedLoop> {
     let mut placed = Vec::new();
     for robot in robots {
         for (id, &(_, standing)) in &robot.loop_standing {
@@ -37,9 +73,9 @@ pub(crate) fn placed_loops<'a>(robots: &'a [RobotHost], frames: &[Option<Pose>])
                 keyframe_in_map(robots, frames, closure.source),
             );
             if let (Some(target_m), Some(source_m)) = ends {
+                let reason = robot.rejection_reasons.get(id).map(String::as_str);
                 placed.push(PlacedLoop {
-                    standing,
-                    rejection_reason: robot.rejection_reasons.get(id).map(String::as_str),
+                    class: loop_class(standing, reason),
                     target_m,
                     source_m,
                 });
@@ -47,4 +83,32 @@ pub(crate) fn placed_loops<'a>(robots: &'a [RobotHost], frames: &[Option<Pose>])
         }
     }
     placed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loops_are_classed_by_standing_and_rejection_reason() {
+        let class = |standing, reason| LOOP_CLASSES[loop_class(standing, reason)].0;
+        assert_eq!(class(LoopStanding::Accepted, None), "accepted");
+        assert_eq!(class(LoopStanding::Undecided, None), "undecided");
+        let mse = Some("truncated MSE: 0.4 m² above 0.25 m²");
+        assert_eq!(
+            class(LoopStanding::Rejected, mse),
+            "rejected by the alignment check"
+        );
+        let retracted = Some("retracted: no longer consistent with the others");
+        assert_eq!(
+            class(LoopStanding::Rejected, retracted),
+            "rejected as inconsistent"
+        );
+        assert_eq!(class(LoopStanding::Rejected, None), "rejected as inconsistent");
+        assert_eq!(
+            loop_class_of_namespace("rejected as inconsistent"),
+            Some(LoopClass::Rejected)
+        );
+        assert_eq!(loop_class_of_namespace("someone else's markers"), None);
+    }
 }

@@ -18,29 +18,16 @@
 use std::path::{Path, PathBuf};
 
 use skid_bag::Encoding;
-use skid_bag::write::viz::{self, FrameTransform, LineListMarker, RosPose, VizType};
+use skid_bag::write::viz::{self, FrameTransform, LineListMarker, VizType};
 use skid_bag::write::{McapWriter, WrittenType, encode};
+use skid_core::msgs::PoseWire;
+use skid_core::pose::pose_to_wire;
 use skid_core::{Point, Pose, RawPoint};
 
 use crate::RuntimeError;
 use crate::artifacts::output_error;
-use crate::host::{LoopStanding, RobotHost};
-
-/// The loop classes drawn, with their marker namespace and colour (RGBA).
-const LOOP_CLASSES: [(&str, [f32; 4]); 4] = [
-    ("accepted", [0.1, 0.8, 0.2, 1.0]),
-    ("rejected by the alignment check", [1.0, 0.6, 0.0, 1.0]),
-    ("rejected as inconsistent", [0.9, 0.1, 0.1, 1.0]),
-    ("undecided", [0.6, 0.6, 0.6, 1.0]),
-];
-
-fn ros_pose(pose: &Pose) -> RosPose {
-    let wire = skid_core::pose::pose_to_wire(pose);
-    RosPose {
-        translation_m: wire.translation_m,
-        rotation_xyzw: wire.rotation_xyzw,
-    }
-}
+use crate::host::RobotHost;
+use crate::loop_lines::{LOOP_CLASSES, placed_loops};
 
 fn raw_points(points: &[Point]) -> Vec<RawPoint> {
     points
@@ -56,17 +43,13 @@ struct Record {
 
 impl Record {
     fn topic(&mut self, name: &str, message_type: &str, definition: &str) -> Result<u16, RuntimeError> {
-        let path = self.writer.path().to_owned();
-        self.writer
-            .add_topic(name, message_type, definition)
-            .map_err(|e| output_error(&path, e))
+        let added = self.writer.add_topic(name, message_type, definition);
+        added.map_err(|e| output_error(self.writer.path(), e))
     }
 
     fn write(&mut self, channel: u16, stamp_nanos: u64, data: &[u8]) -> Result<(), RuntimeError> {
-        let path = self.writer.path().to_owned();
-        self.writer
-            .write(channel, stamp_nanos, data)
-            .map_err(|e| output_error(&path, e))
+        let written = self.writer.write(channel, stamp_nanos, data);
+        written.map_err(|e| output_error(self.writer.path(), e))
     }
 
     fn topic_of(&mut self, name: &str, kind: WrittenType) -> Result<u16, RuntimeError> {
@@ -103,7 +86,7 @@ pub fn write_run_record(
                 stamp_nanos: first_nanos,
                 parent: "map".to_owned(),
                 child: format!("robot{}/map", robot.robot.0),
-                parent_from_child: ros_pose(frame.as_ref()?),
+                parent_from_child: pose_to_wire(frame.as_ref()?),
             })
         })
         .collect();
@@ -147,7 +130,7 @@ fn write_robot(
     let odometry = record.topic_of(&format!("/{name}/odometry"), WrittenType::Odometry)?;
     let optimised = robot.optimised_trajectory();
     for (sequence, (scan, (_, corrected))) in robot.scans.iter().zip(&optimised).enumerate() {
-        let pose = ros_pose(&scan.world_from_sensor);
+        let pose = pose_to_wire(&scan.world_from_sensor);
         let frames = (odom_frame.as_str(), sensor_frame.as_str());
         let message = encode::odometry(
             Encoding::Cdr,
@@ -170,7 +153,7 @@ fn write_robot(
                 stamp_nanos: scan.stamp_nanos,
                 parent: map_frame.clone(),
                 child: odom_frame.clone(),
-                parent_from_child: ros_pose(&correction),
+                parent_from_child: pose_to_wire(&correction),
             },
         ];
         record.write(tf, scan.stamp_nanos, &viz::tf_message(&transforms))?;
@@ -194,16 +177,16 @@ fn write_robot(
     }
 
     let path_topic = record.viz_topic(&format!("/{name}/path"), VizType::Path)?;
-    let poses: Vec<(u64, RosPose)> = optimised
+    let poses: Vec<(u64, PoseWire)> = optimised
         .iter()
-        .map(|(stamp, pose)| (*stamp, ros_pose(pose)))
+        .map(|(stamp, pose)| (*stamp, pose_to_wire(pose)))
         .collect();
     record.write(path_topic, last_nanos, &viz::path(last_nanos, &map_frame, &poses))?;
 
-    let truth: Vec<(u64, RosPose)> = robot
+    let truth: Vec<(u64, PoseWire)> = robot
         .scans
         .iter()
-        .filter_map(|scan| Some((scan.stamp_nanos, ros_pose(scan.ground_truth.as_ref()?))))
+        .filter_map(|scan| Some((scan.stamp_nanos, pose_to_wire(scan.ground_truth.as_ref()?))))
         .collect();
     if !truth.is_empty() {
         let truth_topic = record.viz_topic(&format!("/{name}/ground_truth"), VizType::Path)?;
@@ -212,24 +195,12 @@ fn write_robot(
     Ok(())
 }
 
-/// Which of [`LOOP_CLASSES`] a loop belongs to, given its standing and, when rejected, the reason.
-fn loop_class(standing: LoopStanding, rejection_reason: Option<&str>) -> usize {
-    match standing {
-        LoopStanding::Accepted => 0,
-        LoopStanding::Undecided => 3,
-        // The PCM verifier names its alignment check's refusals `truncated MSE: …`; every other
-        // refusal (consistency, retraction) is a judgement on the loop against the others.
-        LoopStanding::Rejected if rejection_reason.is_some_and(|r| r.starts_with("truncated MSE")) => 1,
-        LoopStanding::Rejected => 2,
-    }
-}
-
 /// Every robot's submitted loops as line lists, one per class.
 fn loop_markers(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<LineListMarker> {
     let mut markers: Vec<LineListMarker> = LOOP_CLASSES
         .iter()
         .enumerate()
-        .map(|(id, (namespace, rgba))| LineListMarker {
+        .map(|(id, (namespace, rgba, _))| LineListMarker {
             namespace: (*namespace).to_owned(),
             id: id as i32,
             rgba: *rgba,
@@ -237,32 +208,8 @@ fn loop_markers(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<LineListMa
             segments: Vec::new(),
         })
         .collect();
-    for line in crate::loop_lines::placed_loops(robots, frames) {
-        let class = loop_class(line.standing, line.rejection_reason);
-        markers[class].segments.push((line.target_m, line.source_m));
+    for line in placed_loops(robots, frames) {
+        markers[line.class].segments.push((line.target_m, line.source_m));
     }
     markers
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn loops_are_classed_by_standing_and_rejection_reason() {
-        let class = |standing, reason| LOOP_CLASSES[loop_class(standing, reason)].0;
-        assert_eq!(class(LoopStanding::Accepted, None), "accepted");
-        assert_eq!(class(LoopStanding::Undecided, None), "undecided");
-        let mse = Some("truncated MSE: 0.4 m² above 0.25 m²");
-        assert_eq!(
-            class(LoopStanding::Rejected, mse),
-            "rejected by the alignment check"
-        );
-        let retracted = Some("retracted: no longer consistent with the others");
-        assert_eq!(
-            class(LoopStanding::Rejected, retracted),
-            "rejected as inconsistent"
-        );
-        assert_eq!(class(LoopStanding::Rejected, None), "rejected as inconsistent");
-    }
 }

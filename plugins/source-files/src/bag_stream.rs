@@ -6,7 +6,6 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use nalgebra::{Quaternion, Translation3, UnitQuaternion};
 use skid_bag::msgs::livox::{decode_livox_custom, is_livox_custom};
 use skid_bag::msgs::motion::{self, StampedPose};
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2, PointField, raw_points};
@@ -390,15 +389,5 @@ fn decode_poses(
 
 /// A ROS pose as an isometry, `None` when it is not finite or its quaternion has no direction.
 pub(crate) fn to_pose(pose: &StampedPose) -> Option<Pose> {
-    let [x, y, z] = pose.translation_m;
-    let [qx, qy, qz, qw] = pose.rotation_xyzw;
-    let quaternion = Quaternion::new(qw, qx, qy, qz);
-    let norm = quaternion.norm();
-    if !(norm.is_finite() && norm > 1e-9 && x.is_finite() && y.is_finite() && z.is_finite()) {
-        return None;
-    }
-    Some(Pose::from_parts(
-        Translation3::new(x, y, z),
-        UnitQuaternion::from_quaternion(quaternion),
-    ))
+    skid_core::pose::pose_from_wire(&pose.wire())
 }

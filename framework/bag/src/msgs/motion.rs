@@ -2,7 +2,7 @@
 //! and `tf2_msgs/TFMessage` (`geometry_msgs/TransformStamped[]`), each decoded from either serialization
 //! (the fields and their order are the same in ROS 1 and ROS 2).
 
-use skid_msgs::ImuSample;
+use skid_msgs::{ImuSample, PoseWire};
 
 use crate::error::DecodeError;
 use crate::wire::{Header, WireReader};
@@ -16,6 +16,16 @@ pub struct StampedPose {
     pub translation_m: [f64; 3],
     /// Unit quaternion `x, y, z, w` as ROS orders it.
     pub rotation_xyzw: [f64; 4],
+}
+
+impl StampedPose {
+    /// The pose alone, in SKiD's wire form (the same order as ROS's).
+    pub fn wire(&self) -> PoseWire {
+        PoseWire {
+            translation_m: self.translation_m,
+            rotation_xyzw: self.rotation_xyzw,
+        }
+    }
 }
 
 fn pose(reader: &mut WireReader<'_>) -> Result<([f64; 3], [f64; 4]), DecodeError> {

@@ -3,6 +3,8 @@
 //! `ros2msg` definitions (ROS 2 Jazzy's `.msg` files, comments left out) that MCAP schemas carry so
 //! Foxglove Studio, `ros2 bag play` and `rosbags` decode them without SKiD.
 
+use skid_msgs::PoseWire;
+
 use super::encode::full_definition;
 use super::wire_writer::WireWriter;
 use crate::wire::Encoding;
@@ -82,20 +84,14 @@ impl VizType {
     }
 }
 
-/// A rigid transform as ROS messages carry it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RosPose {
-    pub translation_m: [f64; 3],
-    pub rotation_xyzw: [f64; 4],
-}
-
-/// One `geometry_msgs/TransformStamped`: `child` placed in `parent` at `stamp_nanos`.
+/// One `geometry_msgs/TransformStamped`: `child` placed in `parent` at `stamp_nanos` (a pose in ROS's
+/// order, translation then quaternion `x, y, z, w`, is SKiD's [`PoseWire`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameTransform {
     pub stamp_nanos: u64,
     pub parent: String,
     pub child: String,
-    pub parent_from_child: RosPose,
+    pub parent_from_child: PoseWire,
 }
 
 /// One `LINE_LIST` marker: a line per pair of points, in one colour.
@@ -108,13 +104,13 @@ pub struct LineListMarker {
     pub segments: Vec<([f64; 3], [f64; 3])>,
 }
 
-fn pose(writer: &mut WireWriter, pose: &RosPose) {
+fn pose(writer: &mut WireWriter, pose: &PoseWire) {
     writer.f64s(&pose.translation_m);
     writer.f64s(&pose.rotation_xyzw);
 }
 
 /// A `nav_msgs/Path` in `frame_id` stamped `stamp_nanos`, one `PoseStamped` per `(stamp, pose)`.
-pub fn path(stamp_nanos: u64, frame_id: &str, poses: &[(u64, RosPose)]) -> Vec<u8> {
+pub fn path(stamp_nanos: u64, frame_id: &str, poses: &[(u64, PoseWire)]) -> Vec<u8> {
     let mut writer = WireWriter::new(Encoding::Cdr, 96 + poses.len() * (80 + frame_id.len()));
     writer.header(0, stamp_nanos, frame_id);
     writer.sequence_len(poses.len());
@@ -150,7 +146,7 @@ pub fn line_markers(stamp_nanos: u64, frame_id: &str, markers: &[LineListMarker]
         writer.i32(ADD);
         pose(
             &mut writer,
-            &RosPose {
+            &PoseWire {
                 translation_m: [0.0; 3],
                 rotation_xyzw: [0.0, 0.0, 0.0, 1.0],
             },

@@ -6,37 +6,27 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use skid_bag::msgs::markers::decode_marker_array;
 use skid_bag::msgs::motion::{StampedPose, decode_path, decode_tf_message};
 use skid_bag::msgs::point_cloud2::{CloudLayout, PointCloud2, raw_points};
 use skid_bag::{Bag, MessageReader, WireReader};
 use skid_core::Pose;
-use skid_eval::plot::{LoopClass, LoopLine, PlotOptions, RobotTrack, RunPlotData, write_run_plots};
+use skid_eval::plot::{LoopLine, PlotOptions, RobotTrack, RunPlotData, write_run_plots};
 
-fn pose_of(stamped: &StampedPose) -> Pose {
-    let [x, y, z, w] = stamped.rotation_xyzw;
-    let [tx, ty, tz] = stamped.translation_m;
-    Isometry3::from_parts(
-        Translation3::new(tx, ty, tz),
-        UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
-    )
+/// A recorded pose, refused when it is not finite or its quaternion has no direction.
+fn pose_of(stamped: &StampedPose, path: &Path, topic: &str) -> Result<Pose> {
+    skid_core::pose::pose_from_wire(&stamped.wire()).with_context(|| {
+        format!(
+            "{}: a pose on {topic} is not finite or has a zero quaternion",
+            path.display()
+        )
+    })
 }
 
 /// The robot index of a `/robot<i>/…` topic or a `robot<i>/map` frame.
 fn robot_index(name: &str) -> Option<usize> {
     let rest = name.trim_start_matches('/').strip_prefix("robot")?;
     rest.split('/').next()?.parse().ok()
-}
-
-fn loop_class(namespace: &str) -> LoopClass {
-    if namespace == "accepted" {
-        LoopClass::Accepted
-    } else if namespace.starts_with("rejected") {
-        LoopClass::Rejected
-    } else {
-        LoopClass::Undecided
-    }
 }
 
 /// The plot data a run record holds.
@@ -50,7 +40,10 @@ fn read_record(path: &Path) -> Result<RunPlotData> {
         let context = || format!("{}: the message on {topic}", path.display());
         if topic == "/loops" {
             for marker in decode_marker_array(&mut reader).with_context(context)? {
-                let class = loop_class(&marker.namespace);
+                // Markers of other namespaces (another tool's) are not loops.
+                let Some(class) = skid_runtime::loop_class_of_namespace(&marker.namespace) else {
+                    continue;
+                };
                 for pair in marker.points.chunks_exact(2) {
                     loops.push(LoopLine {
                         class,
@@ -64,7 +57,7 @@ fn read_record(path: &Path) -> Result<RunPlotData> {
         if topic == "/tf_static" {
             for transform in decode_tf_message(&mut reader).with_context(context)? {
                 if let Some(index) = robot_index(&transform.child_frame_id) {
-                    robots.entry(index).or_default().map_from_robot = Some(pose_of(&transform));
+                    robots.entry(index).or_default().map_from_robot = Some(pose_of(&transform, path, topic)?);
                 }
             }
             continue;
@@ -75,11 +68,11 @@ fn read_record(path: &Path) -> Result<RunPlotData> {
         let track = robots.entry(index).or_default();
         track.name = format!("robot {index}");
         if topic.ends_with("/path") || topic.ends_with("/ground_truth") {
-            let poses: Vec<(u64, Pose)> = decode_path(&mut reader)
+            let poses = decode_path(&mut reader)
                 .with_context(context)?
                 .iter()
-                .map(|pose| (pose.stamp_nanos, pose_of(pose)))
-                .collect();
+                .map(|pose| Ok((pose.stamp_nanos, pose_of(pose, path, topic)?)))
+                .collect::<Result<Vec<(u64, Pose)>>>()?;
             if topic.ends_with("/path") {
                 track.trajectory = poses;
             } else {
