@@ -53,9 +53,13 @@ fn main() {
         let start = Instant::now();
         let world = World::shared(kind, 7);
         println!(
-            "# {kind}: generated in {:.2} s, {} object triangles",
+            "# {kind}: generated in {:.2} s, {} object triangles{}",
             start.elapsed().as_secs_f64(),
-            world.triangle_count()
+            world.triangle_count(),
+            world
+                .rms_slope_deg(20.0, 1.0)
+                .map(|slope| format!(", RMS slope {slope:.1}° (1 m baseline, within 20 m of the lanes)"))
+                .unwrap_or_default()
         );
         for &sensor in &sensors {
             for threads in [1, threads] {

@@ -6,7 +6,9 @@
 
 mod cave;
 pub mod graph;
+pub mod lanes;
 mod planetary;
+pub mod rocks;
 pub mod shapes;
 mod urban;
 
@@ -267,6 +269,34 @@ impl World {
             .nearest(p, max_m.min(terrain))
             .map_or(f32::INFINITY, |(d, _)| d);
         terrain.min(objects).min(max_m)
+    }
+
+    /// RMS slope in degrees at a `baseline_m` baseline over the terrain within `near_m` of the route
+    /// graph's lanes (sampled every 2 m): `atan(sqrt(mean(|∇h|²)))`, the figure planetary surveys quote.
+    /// `None` for worlds without terrain.
+    pub fn rms_slope_deg(&self, near_m: f64, baseline_m: f64) -> Option<f64> {
+        let terrain = self.terrain.as_ref()?;
+        let (x0, y0) = terrain.origin_m();
+        let size = terrain.size_m();
+        let lines: Vec<Vec<[f64; 3]>> = self.graph.edges.iter().map(|(_, _, l)| l.clone()).collect();
+        let cells = (size / 4.0).ceil() as usize;
+        let index = lanes::LaneIndex::new(&lines, x0.min(y0), cells, 4.0, near_m);
+        let half = baseline_m / 2.0;
+        let (mut sum, mut count) = (0.0, 0usize);
+        let steps = (size / 2.0) as usize;
+        for j in 1..steps {
+            for i in 1..steps {
+                let (x, y) = (x0 + i as f64 * 2.0, y0 + j as f64 * 2.0);
+                if index.distance_m(x, y) > near_m {
+                    continue;
+                }
+                let gx = (terrain.height_at(x + half, y) - terrain.height_at(x - half, y)) / baseline_m;
+                let gy = (terrain.height_at(x, y + half) - terrain.height_at(x, y - half)) / baseline_m;
+                sum += gx * gx + gy * gy;
+                count += 1;
+            }
+        }
+        (count > 0).then(|| (sum / count as f64).sqrt().atan().to_degrees())
     }
 
     /// The terrain height at (x, y), for surface worlds.
