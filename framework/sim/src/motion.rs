@@ -44,6 +44,23 @@ pub struct MotionSpec {
     pub mount_height_m: f64,
     /// Standing time before the robot starts and after it stops.
     pub still_s: f64,
+    /// The robot drives this far to the right of the route's centre line (negative: to the left), as a
+    /// vehicle keeps to its side of a road. Two robots driving one route in opposite directions then
+    /// pass each other `2 × keep_right_m` apart: a reverse traverse is a different viewpoint, not the
+    /// same scan turned around.
+    pub keep_right_m: f64,
+}
+
+impl MotionSpec {
+    /// How far a robot keeps to the right of the centre line in a world of `kind` by default: half a
+    /// lane in a city (1.75 m), a rover's offset from a planned traverse (1 m), a little in a tunnel.
+    pub fn default_keep_right_m(kind: WorldKind) -> f64 {
+        match kind {
+            WorldKind::Urban => 1.75,
+            WorldKind::Planetary => 1.0,
+            WorldKind::Cave => 0.3,
+        }
+    }
 }
 
 impl Default for MotionSpec {
@@ -53,6 +70,7 @@ impl Default for MotionSpec {
             profile: Profile::Ground,
             mount_height_m: 0.8,
             still_s: 1.0,
+            keep_right_m: 0.0,
         }
     }
 }
@@ -103,12 +121,8 @@ fn wrap_pi(a: f64) -> f64 {
     (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }
 
-/// The trajectory of the body (= sensor) frame along `route`, starting at t = 0.
-pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory {
-    let ds = 0.25;
-    let coarse = resample(&route.centre_line, 1.0);
-    let smooth = moving_average(&moving_average(&coarse, 5), 5);
-    let path = resample(&smooth, ds);
+/// The heading of a polyline at each point (from its neighbours), unwrapped so it changes smoothly.
+fn headings(path: &[[f64; 3]]) -> Vec<f64> {
     let n = path.len();
     let mut heading: Vec<f64> = (0..n)
         .map(|i| {
@@ -119,6 +133,40 @@ pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory
     for i in 1..n {
         heading[i] = heading[i - 1] + wrap_pi(heading[i] - heading[i - 1]);
     }
+    heading
+}
+
+/// The trajectory of the body (= sensor) frame along `route`, starting at t = 0.
+pub fn trajectory(world: &World, route: &Route, spec: &MotionSpec) -> Trajectory {
+    let ds = 0.25;
+    let coarse = resample(&route.centre_line, 1.0);
+    // Corners are rounded by two moving averages over ±5 m, which cuts a right-angle turn by a few
+    // metres: fine on open ground and streets, but in a tunnel about 3 m in radius it would climb the
+    // inside wall, so caves round their corners over ±2 m.
+    let half_window = if world.kind() == WorldKind::Cave { 2 } else { 5 };
+    let smooth = moving_average(&moving_average(&coarse, half_window), half_window);
+    let centre = resample(&smooth, ds);
+    // Keep to the right: shift every point along the right-hand normal of the centre line's heading,
+    // then sample the shifted line evenly again, so speeds and times below follow the path driven.
+    let path = if spec.keep_right_m == 0.0 {
+        centre
+    } else {
+        let centre_heading = headings(&centre);
+        let shifted: Vec<[f64; 3]> = centre
+            .iter()
+            .zip(&centre_heading)
+            .map(|(p, yaw)| {
+                [
+                    p[0] + spec.keep_right_m * yaw.sin(),
+                    p[1] - spec.keep_right_m * yaw.cos(),
+                    p[2],
+                ]
+            })
+            .collect();
+        resample(&shifted, ds)
+    };
+    let n = path.len();
+    let heading = headings(&path);
     let curvature = smooth_scalar(
         &(0..n)
             .map(|i| (heading[(i + 1).min(n - 1)] - heading[i]).abs() / ds)

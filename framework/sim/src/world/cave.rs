@@ -2,8 +2,9 @@
 //! chambers, about 450 m × 450 m with 3 km of passages.
 //!
 //! The cave is a signed distance field: the union of tunnel pieces (capsules around meandering centre
-//! lines) and chambers (flattened ellipsoids at some junctions), each cut by a floor plane, with walls
-//! roughened by 3D fBm. It is meshed with naive surface nets (Gibson, "Constrained elastic surface
+//! lines) and chambers (flattened ellipsoids at some junctions), cut by one floor that blends the
+//! pieces' floor heights where they overlap (so it ramps where a sloping tunnel enters a chamber), with
+//! walls roughened by 3D fBm. It is meshed with naive surface nets (Gibson, "Constrained elastic surface
 //! nets", 1998) on a sparse grid of 8³ blocks that only covers the tunnels, so junctions merge into one
 //! watertight surface with no internal walls.
 
@@ -55,8 +56,9 @@ impl Piece {
         )
     }
 
-    /// Signed distance (negative inside) given the wall noise `coarse` and `fine` at q.
-    fn sdf(&self, q: [f64; 3], coarse: f64, fine: f64) -> f64 {
+    /// The signed distance to the piece's walls (negative inside) given the wall noise `coarse` and `fine`
+    /// at q, and the height of its floor there.
+    fn wall_and_floor(&self, q: [f64; 3], coarse: f64, fine: f64) -> (f64, f64) {
         match self {
             Piece::Tunnel { a, b, radius_m } => {
                 let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
@@ -66,8 +68,7 @@ impl Piece {
                 let c = [a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2]];
                 let d = ((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2) + (q[2] - c[2]).powi(2)).sqrt();
                 let wall = d - radius_m * (1.0 + 0.25 * coarse) - 0.15 * fine;
-                let floor = c[2] - FLOOR_BELOW_AXIS_M + 0.08 * fine - q[2];
-                wall.max(floor)
+                (wall, c[2] - FLOOR_BELOW_AXIS_M)
             }
             Piece::Chamber { center, radius_m } => {
                 let d = ((q[0] - center[0]).powi(2)
@@ -75,10 +76,32 @@ impl Piece {
                     + ((q[2] - center[2] - 1.0) / 0.6).powi(2))
                 .sqrt();
                 let wall = d - radius_m * (1.0 + 0.25 * coarse) - 0.15 * fine;
-                let floor = center[2] - FLOOR_BELOW_AXIS_M + 0.08 * fine - q[2];
-                wall.max(floor)
+                (wall, center[2] - FLOOR_BELOW_AXIS_M)
             }
         }
+    }
+}
+
+/// Signed distance (negative inside) of the union of `pieces` at q. The walls are the union of the
+/// pieces' walls; the floor is one surface, each piece's floor height weighted by how deep inside it q
+/// lies (full weight from 1.5 m inside its wall), so where a sloping tunnel enters a chamber or another
+/// tunnel the floor ramps from one height to the other instead of dropping in a step no robot could
+/// drive.
+fn union_distance(pieces: &[Piece], list: &[u32], q: [f64; 3], coarse: f64, fine: f64) -> f64 {
+    let (mut wall, mut weights, mut heights) = (4.0f64, 0.0, 0.0);
+    for &index in list {
+        let (piece_wall, floor_m) = pieces[index as usize].wall_and_floor(q, coarse, fine);
+        wall = wall.min(piece_wall);
+        let depth = (-piece_wall / 1.5).clamp(0.0, 1.0);
+        let weight = depth * depth * (3.0 - 2.0 * depth) + if piece_wall < 0.0 { 1e-6 } else { 0.0 };
+        weights += weight;
+        heights += weight * floor_m;
+    }
+    if weights > 0.0 {
+        let floor = heights / weights + 0.08 * fine - q[2];
+        wall.max(floor)
+    } else {
+        wall
     }
 }
 
@@ -184,10 +207,7 @@ fn surface_nets(seed: u64, pieces: &[Piece]) -> Mesh {
                 ];
                 let coarse = fbm3(coarse_seed, q[0] / 7.0, q[1] / 7.0, q[2] / 7.0, 2, 0.5);
                 let fine = value3(fine_seed, q[0] / 1.3, q[1] / 1.3, q[2] / 1.3);
-                *value = list
-                    .iter()
-                    .map(|&p| pieces[p as usize].sdf(q, coarse, fine))
-                    .fold(4.0, f64::min) as f32;
+                *value = union_distance(pieces, &list, q, coarse, fine) as f32;
             }
             (key, values)
         })

@@ -1,6 +1,7 @@
-//! The urban world: an irregular street grid over gently sloping ground, with raised sidewalks,
-//! blocks of box buildings (some with set-back upper storeys), street poles, parked cars and trees.
-//! Street spacing and building heights are drawn per seed; intersections stay clear of clutter.
+//! The urban world: an irregular street grid over gently sloping ground, crowned carriageways (2 % cross
+//! slope), raised sidewalks, blocks of box buildings (some with set-back upper storeys), street poles,
+//! parked cars and trees. Street spacing and building heights are drawn per seed; intersections stay
+//! clear of clutter.
 
 use super::Material;
 use super::WorldParts;
@@ -19,6 +20,8 @@ const HALF_M: f64 = 512.0;
 /// Half-width of the carriageway and outer edge of the sidewalk, from the centre line.
 const ROAD_HALF_M: f64 = 6.0;
 const SIDEWALK_OUTER_M: f64 = 9.5;
+/// Cross slope of a carriageway's crown (rise per metre towards the centre line).
+const CROSS_SLOPE: f64 = 0.02;
 
 /// Street positions along one axis: irregular spacing 70–130 m.
 fn street_lines(rng: &mut Rng) -> Vec<f64> {
@@ -47,9 +50,17 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
         if inside { dx.min(dy) } else { f64::INFINITY }
     };
     let origin = -HALF_M;
+    // Carriageways are crowned for drainage: a 2 % cross slope from the centre line down to the kerb,
+    // so a vehicle keeping to its lane rolls by about a degree and no two scans of a road are mirror
+    // images of each other. Sidewalks stand 15 cm above the kerb.
     let heights = HeightField::sample_vertices(origin, origin, CELL_M, CELLS, |x, y| {
         let d = street_distance(x, y);
-        ground(x, y) + if d > ROAD_HALF_M { 0.15 } else { 0.0 }
+        ground(x, y)
+            + if d > ROAD_HALF_M {
+                0.15
+            } else {
+                CROSS_SLOPE * (ROAD_HALF_M - d)
+            }
     });
     let materials = (0..CELLS * CELLS)
         .map(|i| {
