@@ -50,6 +50,9 @@ impl PrCase {
             seed,
             robots,
             route_length_m: route_m,
+            // The patterns around one shared route (leader, reverse, same direction, partial, ...):
+            // every robot revisits the leader's road, so the curves have true matches of every kind.
+            mission: skid_sim::Mission::SharedRoute,
             imu: false,
             ..SimConfig::default()
         }

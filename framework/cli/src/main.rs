@@ -219,6 +219,12 @@ struct SimFlags {
     /// Seeds the world, the routes and every noise stream (the same seed gives the same scans).
     #[arg(long, default_value_t = 7)]
     seed: u64,
+    /// What the fleet does.
+    #[arg(long, default_value = "explore_meet", value_parser = ["explore_meet", "rendezvous", "crossing", "reverse", "partial", "loner", "shared_route"])]
+    mission: String,
+    /// Length of each robot's route, metres.
+    #[arg(long, value_name = "METRES", default_value_t = 600.0)]
+    route_length_m: f64,
 }
 
 #[derive(Subcommand, Debug)]
@@ -296,6 +302,8 @@ impl SimFlags {
             robots: self.robots,
             frames: self.frames,
             seed: self.seed,
+            mission: &self.mission,
+            route_length_m: self.route_length_m,
         }
     }
 }

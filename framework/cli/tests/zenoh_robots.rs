@@ -76,6 +76,7 @@ impl Fleet {
             "run.threads=1".to_owned(),
             format!("run.max_scans={SCANS}"),
             "source.sim.world=urban".to_owned(),
+            "source.sim.mission=shared_route".to_owned(),
             "source.sim.profile=aerial".to_owned(),
             "source.sim.sensor=vlp16".to_owned(),
             "source.sim.speed_mps=6".to_owned(),

@@ -38,6 +38,7 @@ fn fleet(extra: &[&str]) -> Fleet {
         "odometry.ground_truth.keyframe.distance_m=0.75",
         "run.threads=2",
         "source.sim.world=urban",
+        "source.sim.mission=shared_route",
         "source.sim.profile=aerial",
         "source.sim.sensor=vlp16",
         "source.sim.speed_mps=6",

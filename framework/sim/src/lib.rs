@@ -4,8 +4,9 @@
 //! - [`World`]: `planetary`, `cave` and `urban` worlds from a seed; terrain as a height field with a
 //!   min/max mip-map, objects and caves as triangles in a binned-SAH BVH.
 //! - [`Sensor`]: VLP-16, OS1-32, OS1-64, HDL-64E and a Livox-Avia-like non-repetitive solid-state model.
-//! - [`Trajectory`] and [`routes`]: routes for 1–16 robots that overlap in the same and the reverse
-//!   direction, partially, at crossings, and from far-apart starts; ground and aerial motion profiles.
+//! - [`Trajectory`], [`plan_route`] and [`plan_mission`]: routes for 1–16 robots — named missions in
+//!   which robots start apart, explore and meet (crossing, reverse traverse, rendezvous, partial
+//!   overlap, never), or the patterns around one shared route; ground and aerial motion profiles.
 //! - [`SimSource`]: scans with per-point time offsets (motion distortion), noise, dropouts, spurious
 //!   returns, IMU samples and ground truth; [`register`] adds it to a registry as the `sim` source.
 //! - [`export_kitti`] and [`preview_png`]: files for other tools and for eyes.
@@ -22,6 +23,7 @@ pub use error::SimError;
 pub use world::{Hit, Material, RoadGraph, World, WorldKind};
 pub mod gait;
 pub mod imu;
+pub mod mission;
 pub mod motion;
 pub mod route;
 pub mod scan;
@@ -30,6 +32,7 @@ mod source;
 pub mod trajectory;
 
 pub use imu::{ImuNoise, ImuSimulator};
+pub use mission::{Mission, plan_mission};
 pub use motion::{MotionSpec, Profile};
 pub use route::{Overlap, Route, plan_route};
 pub use scan::{ScanNoise, simulate_sweep};

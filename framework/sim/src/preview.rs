@@ -10,8 +10,8 @@ use rayon::prelude::*;
 
 use crate::SimError;
 use crate::geometry::{Ray, V3};
+use crate::mission::plan_mission;
 use crate::motion::trajectory;
-use crate::route::plan_route;
 use crate::source::SimConfig;
 use crate::world::World;
 
@@ -131,10 +131,17 @@ pub fn preview_png(
 pub fn preview_fleet_png(path: impl AsRef<Path>, config: &SimConfig, size_px: u32) -> Result<(), SimError> {
     let (kind, _) = config.validate()?;
     let world = World::shared(kind, config.seed);
-    let paths: Vec<Vec<[f64; 2]>> = (0..config.robots)
-        .map(|robot| {
-            let route = plan_route(&world, config.seed, robot, config.route_length_m);
-            let trajectory = trajectory(&world, &route, &config.motion());
+    let routes = plan_mission(
+        &world,
+        config.mission,
+        config.seed,
+        config.robots,
+        config.route_length_m,
+    );
+    let paths: Vec<Vec<[f64; 2]>> = routes
+        .iter()
+        .map(|route| {
+            let trajectory = trajectory(&world, route, &config.motion());
             let steps = ((trajectory.end_s() - trajectory.start_s()) / 0.5).ceil() as usize;
             (0..=steps)
                 .map(|k| {

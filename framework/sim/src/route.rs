@@ -30,6 +30,18 @@ pub enum Overlap {
 }
 
 impl Overlap {
+    /// The pattern's name, as serialised.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Overlap::Leader => "leader",
+            Overlap::Reverse => "reverse",
+            Overlap::SameDirection => "same_direction",
+            Overlap::Partial => "partial",
+            Overlap::Crossing => "crossing",
+            Overlap::FarStart => "far_start",
+        }
+    }
+
     /// Pattern by robot index within a group of six.
     pub const FOR_ROBOT: [Overlap; 6] = [
         Overlap::Leader,
@@ -41,27 +53,46 @@ impl Overlap {
     ];
 }
 
+/// Walked edges as (edge, node it is entered from).
+pub type Steps = Vec<(usize, usize)>;
+
 /// A robot's planned route: the junction walk and its centre line.
 #[derive(Clone, Debug)]
 pub struct Route {
     pub robot: u32,
-    pub overlap: Overlap,
+    /// What the robot does in its fleet's plan, in words (an [`Overlap`] pattern's name, or a
+    /// mission's role).
+    pub role: String,
     /// Walked edges as (edge, node it is entered from).
-    pub steps: Vec<(usize, usize)>,
+    pub steps: Steps,
     /// Centre line (x, y, z_reference), metres.
     pub centre_line: Vec<[f64; 3]>,
 }
 
 /// Walks from `start`, choosing at each junction the least-used edge that does not turn back (unless
 /// at a dead end), with edges in `avoid` penalised, until `length_m` is reached.
-fn walk(
+pub(crate) fn walk(
     graph: &RoadGraph,
     rng: &mut Rng,
     start: usize,
     length_m: f64,
     avoid: &[usize],
     first_edge: Option<usize>,
-) -> Vec<(usize, usize)> {
+) -> Steps {
+    walk_penalised(graph, rng, start, length_m, avoid, 6.0, first_edge)
+}
+
+/// [`walk`] with the penalty of an edge in `avoid` given (one earlier visit of an edge costs 10, the
+/// random tie-break up to 3): a huge penalty keeps the walk off those edges wherever it has a choice.
+pub(crate) fn walk_penalised(
+    graph: &RoadGraph,
+    rng: &mut Rng,
+    start: usize,
+    length_m: f64,
+    avoid: &[usize],
+    avoid_penalty: f64,
+    first_edge: Option<usize>,
+) -> Steps {
     let adjacency = graph.adjacency();
     let mut visits = vec![0u32; graph.edges.len()];
     let (mut node, mut previous, mut travelled) = (start, usize::MAX, 0.0);
@@ -77,7 +108,7 @@ fn walk(
             _ => {
                 let score = |e: usize, rng: &mut Rng| {
                     f64::from(visits[e]) * 10.0
-                        + if avoid.contains(&e) { 6.0 } else { 0.0 }
+                        + if avoid.contains(&e) { avoid_penalty } else { 0.0 }
                         + rng.uniform() * 3.0
                 };
                 let scored: Vec<(f64, usize)> = options.iter().map(|&e| (score(e, rng), e)).collect();
@@ -96,7 +127,20 @@ fn walk(
     steps
 }
 
-fn reversed(graph: &RoadGraph, steps: &[(usize, usize)]) -> Vec<(usize, usize)> {
+impl Route {
+    /// The same route driven from its end back to its start.
+    pub fn reversed(&self, graph: &RoadGraph) -> Route {
+        Route {
+            robot: self.robot,
+            role: format!("{} (reversed)", self.role),
+            steps: reversed(graph, &self.steps),
+            centre_line: self.centre_line.iter().rev().copied().collect(),
+        }
+    }
+}
+
+/// The same steps driven from the last back to the first.
+pub(crate) fn reversed(graph: &RoadGraph, steps: &[(usize, usize)]) -> Steps {
     steps
         .iter()
         .rev()
@@ -117,12 +161,25 @@ fn step_at_fraction(graph: &RoadGraph, steps: &[(usize, usize)], fraction: f64) 
     steps.len().saturating_sub(1)
 }
 
-/// Shortest path (Dijkstra on edge lengths) from `from` to `to` as steps.
-fn shortest_path(graph: &RoadGraph, from: usize, to: usize) -> Vec<(usize, usize)> {
+/// Graph distances (Dijkstra on edge lengths) from `from` to every junction, and the step by which each
+/// is reached on a shortest path (`None` for `from` itself and for junctions it cannot reach).
+pub(crate) fn distances_from(graph: &RoadGraph, from: usize) -> (Vec<f64>, Vec<Option<(usize, usize)>>) {
+    distances_weighted(graph, from, &|e| graph.edge_length_m(e))
+}
+
+/// [`distances_from`] with each edge costing `cost(edge)` instead of its length.
+fn distances_weighted(
+    graph: &RoadGraph,
+    from: usize,
+    cost: &dyn Fn(usize) -> f64,
+) -> (Vec<f64>, Vec<Option<(usize, usize)>>) {
     let adjacency = graph.adjacency();
     let mut dist = vec![f64::INFINITY; graph.nodes.len()];
     let mut via: Vec<Option<(usize, usize)>> = vec![None; graph.nodes.len()];
     let mut done = vec![false; graph.nodes.len()];
+    if from >= graph.nodes.len() {
+        return (dist, via);
+    }
     dist[from] = 0.0;
     loop {
         let current = (0..graph.nodes.len())
@@ -130,18 +187,28 @@ fn shortest_path(graph: &RoadGraph, from: usize, to: usize) -> Vec<(usize, usize
             .min_by(|&a, &b| dist[a].total_cmp(&dist[b]));
         let Some(n) = current else { break };
         done[n] = true;
-        if n == to {
-            break;
-        }
         for &e in &adjacency[n] {
             let m = graph.other(e, n);
-            let d = dist[n] + graph.edge_length_m(e);
+            let d = dist[n] + cost(e);
             if d < dist[m] {
                 dist[m] = d;
                 via[m] = Some((e, n));
             }
         }
     }
+    (dist, via)
+}
+
+/// A shortest path from `from` to `to` as steps (empty when they are the same junction or unconnected).
+pub(crate) fn path_to(graph: &RoadGraph, from: usize, to: usize) -> Steps {
+    path_avoiding(graph, from, to, &[])
+}
+
+/// A shortest path from `from` to `to` on which the edges in `avoid` count five times their length, so
+/// it takes other roads where they are not much longer.
+pub(crate) fn path_avoiding(graph: &RoadGraph, from: usize, to: usize, avoid: &[usize]) -> Steps {
+    let cost = |e: usize| graph.edge_length_m(e) * if avoid.contains(&e) { 5.0 } else { 1.0 };
+    let (_, via) = distances_weighted(graph, from, &cost);
     let mut steps = Vec::new();
     let mut n = to;
     while let Some((e, prev)) = via[n] {
@@ -150,6 +217,17 @@ fn shortest_path(graph: &RoadGraph, from: usize, to: usize) -> Vec<(usize, usize
     }
     steps.reverse();
     steps
+}
+
+/// The centre line of `steps`: the edges' polylines joined, each junction once.
+pub(crate) fn centre_line_of(graph: &RoadGraph, steps: &[(usize, usize)]) -> Vec<[f64; 3]> {
+    let mut centre_line: Vec<[f64; 3]> = Vec::new();
+    for &(edge, from) in steps {
+        let line = graph.line_from(edge, from);
+        let skip = usize::from(!centre_line.is_empty());
+        centre_line.extend(line.into_iter().skip(skip));
+    }
+    centre_line
 }
 
 fn end_node(graph: &RoadGraph, steps: &[(usize, usize)], fallback: usize) -> usize {
@@ -241,7 +319,7 @@ pub fn plan_route(world: &World, seed: u64, robot: u32, length_m: f64) -> Route 
                 })
                 .unwrap_or(base_start);
             let middle = step_at_fraction(graph, &base, 0.5);
-            let mut steps = shortest_path(graph, far, base[middle].1);
+            let mut steps = path_to(graph, far, base[middle].1);
             // Follow the base walk for the rest of the length, and for at least 40 % of it even when
             // the approach alone was long.
             let covered: f64 = steps.iter().map(|&(e, _)| graph.edge_length_m(e)).sum();
@@ -257,16 +335,10 @@ pub fn plan_route(world: &World, seed: u64, robot: u32, length_m: f64) -> Route 
             steps
         }
     };
-    let mut centre_line: Vec<[f64; 3]> = Vec::new();
-    for &(edge, from) in &steps {
-        let line = graph.line_from(edge, from);
-        let skip = usize::from(!centre_line.is_empty());
-        centre_line.extend(line.into_iter().skip(skip));
-    }
     Route {
         robot,
-        overlap,
+        role: overlap.name().to_owned(),
+        centre_line: centre_line_of(graph, &steps),
         steps,
-        centre_line,
     }
 }

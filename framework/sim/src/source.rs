@@ -10,9 +10,10 @@ use skid_core::{PluginContext, PluginEntry, PluginError, PluginResult, Registry,
 
 use crate::SimError;
 use crate::imu::{ImuNoise, ImuSimulator};
+use crate::mission::{Mission, plan_mission};
 use crate::motion::{MotionSpec, Profile, trajectory};
 use crate::rng::combine;
-use crate::route::{Route, plan_route};
+use crate::route::Route;
 use crate::scan::{ScanNoise, simulate_sweep};
 use crate::sensor::{SWEEP_PERIOD_S, Sensor};
 use crate::trajectory::Trajectory;
@@ -35,6 +36,10 @@ pub struct SimConfig {
     /// of truth), and the export tools set it from their `--robots` flag.
     #[serde(skip)]
     pub robots: u32,
+    /// What the fleet does: `explore_meet` (robots start apart, explore, cross at a junction and drive
+    /// each other's paths backwards), `rendezvous`, `crossing`, `reverse`, `partial`, `loner` (one robot
+    /// never meets the others) or `shared_route` (patterns around one base walk).
+    pub mission: Mission,
     /// Scans to produce; 0 = until the end of the route.
     pub frames: u32,
     /// Approximate route length.
@@ -59,6 +64,10 @@ pub struct SimConfig {
     pub imu_mount: [f64; 6],
     /// The IMU's clock runs this many seconds ahead of the LiDAR's (its stamps carry the offset).
     pub imu_clock_offset_s: f64,
+    /// How far robots drive to the right of their route's centre line, metres (negative: to the left);
+    /// unset = the world's default (urban 1.75, planetary 1.0, cave 0.3), so robots meeting on a route
+    /// in opposite directions see it from different places.
+    pub keep_right_m: Option<f64>,
     /// Threads for ray casting; 0 = the plugin context's budget.
     pub threads: usize,
 }
@@ -70,6 +79,7 @@ impl Default for SimConfig {
             seed: 7,
             sensor: "os1-64".to_owned(),
             robots: 3,
+            mission: Mission::ExploreMeet,
             frames: 0,
             route_length_m: 600.0,
             speed_mps: 1.0,
@@ -82,6 +92,7 @@ impl Default for SimConfig {
             imu_model: ImuNoise::default(),
             imu_mount: [0.0; 6],
             imu_clock_offset_s: 0.0,
+            keep_right_m: None,
             threads: 0,
         }
     }
@@ -151,6 +162,12 @@ impl SimConfig {
                 self.imu_clock_offset_s
             ),
         )?;
+        if let Some(keep_right_m) = self.keep_right_m {
+            check(
+                keep_right_m.is_finite() && keep_right_m.abs() <= 3.0,
+                format!("keep_right_m = {keep_right_m} must be within ±3 m"),
+            )?;
+        }
         Ok((kind, sensor))
     }
 
@@ -178,9 +195,13 @@ impl SimConfig {
 
     /// The motion parameters.
     pub fn motion(&self) -> MotionSpec {
+        let kind = self.world.parse().unwrap_or(WorldKind::Planetary);
         MotionSpec {
             speed_mps: self.speed_mps,
             profile: self.profile,
+            keep_right_m: self
+                .keep_right_m
+                .unwrap_or_else(|| MotionSpec::default_keep_right_m(kind)),
             ..MotionSpec::default()
         }
     }
@@ -223,7 +244,19 @@ impl SimSource {
             });
         }
         let world = World::shared(kind, config.seed);
-        let route = plan_route(&world, config.seed, robot, config.route_length_m);
+        let route = plan_mission(
+            &world,
+            config.mission,
+            config.seed,
+            config.robots,
+            config.route_length_m,
+        )
+        .into_iter()
+        .nth(robot as usize)
+        .ok_or(SimError::RobotIndex {
+            index: robot,
+            robots: config.robots,
+        })?;
         let trajectory = Arc::new(trajectory(&world, &route, &config.motion()));
         // The last sweep must end before the trajectory does.
         let available = ((trajectory.end_s() - SWEEP_PERIOD_S) / SWEEP_PERIOD_S)

@@ -161,8 +161,8 @@ fn routes_overlap_in_the_ways_that_matter() {
     for kind in WorldKind::ALL {
         let world = common::world(kind);
         let routes: Vec<_> = (0..6).map(|robot| plan_route(&world, 7, robot, 600.0)).collect();
-        let overlaps: Vec<Overlap> = routes.iter().map(|r| r.overlap).collect();
-        assert_eq!(overlaps, Overlap::FOR_ROBOT.to_vec());
+        let roles: Vec<&str> = routes.iter().map(|r| r.role.as_str()).collect();
+        assert_eq!(roles, Overlap::FOR_ROBOT.map(Overlap::name).to_vec());
         let length = |line: &[[f64; 3]]| {
             line.windows(2)
                 .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
@@ -247,8 +247,11 @@ fn ground_motion_is_plausible_and_ground_truth_is_exact() {
             max_speed < 1.55 && max_speed > 1.0,
             "{kind}: top speed {max_speed}"
         );
+        // The planetary terrain's metre-scale relief (RMS slope about 10°) tilts a rover by up to about
+        // 26°, within what planetary rovers drive (Curiosity's rating is 30°); roads and tunnels less.
+        let max_allowed = if kind == WorldKind::Planetary { 0.5 } else { 0.4 };
         assert!(
-            max_tilt > 0.002 && max_tilt < 0.4,
+            max_tilt > 0.002 && max_tilt < max_allowed,
             "{kind}: tilt up to {max_tilt} rad"
         );
         let scan = source.scan_at(17);
@@ -356,9 +359,11 @@ fn kitti_export_writes_a_readable_sequence() {
         .collect();
     assert_eq!(lines.len(), 3);
     assert!(lines.iter().all(|l| l.len() == 12));
-    assert_eq!(
-        lines[0],
-        vec![1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+    let identity = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    assert!(
+        lines[0].iter().zip(identity).all(|(a, b)| (a - b).abs() < 1e-12),
+        "the first pose is the origin: {:?}",
+        lines[0]
     );
     let relative = expected[0].ground_truth_world_from_sensor.unwrap().inverse()
         * expected[2].ground_truth_world_from_sensor.unwrap();

@@ -107,6 +107,8 @@ pub struct SimArgs<'a> {
     pub robots: u32,
     pub frames: u32,
     pub seed: u64,
+    pub mission: &'a str,
+    pub route_length_m: f64,
 }
 
 fn sim_config(args: &SimArgs<'_>) -> Result<SimConfig> {
@@ -116,6 +118,8 @@ fn sim_config(args: &SimArgs<'_>) -> Result<SimConfig> {
         robots: args.robots,
         frames: args.frames,
         seed: args.seed,
+        mission: args.mission.parse()?,
+        route_length_m: args.route_length_m,
         ..SimConfig::default()
     };
     config.validate()?;
