@@ -14,4 +14,4 @@ pub use chain::{OdometryChains, adjoint};
 pub use degeneracy::{BlockSpectrum, marginal_spectra};
 pub use deskew::deskew_constant_velocity;
 pub use keyframe::{KeyframePolicy, KeyframeTrigger};
-pub use voxel::voxel_downsample;
+pub use voxel::{voxel_centroids, voxel_downsample};

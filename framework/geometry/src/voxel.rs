@@ -1,5 +1,8 @@
-//! Voxel-grid downsampling that keeps the first point falling into each voxel (as KISS-ICP does), so
-//! the output is a subset of real measurements and the result is deterministic.
+//! Voxel-grid downsampling, two ways: [`voxel_downsample`] keeps the first point falling into each voxel
+//! (as KISS-ICP does), so the output is a subset of real measurements; [`voxel_centroids`] keeps each
+//! voxel's centroid (as KISS-Matcher's sampling does), which averages the range noise out of the
+//! positions that normals and features are computed from. Both are deterministic, in the order voxels
+//! are first met.
 
 use std::collections::HashMap;
 
@@ -28,9 +31,61 @@ pub fn voxel_downsample(points: &[Point], voxel_size_m: f32) -> Vec<Point> {
         .collect()
 }
 
+/// The centroid of the finite points in every occupied voxel (intensity averaged too), one point per
+/// voxel in the order voxels are first met. A non-positive or non-finite voxel size returns the finite
+/// points unchanged.
+pub fn voxel_centroids(points: &[Point], voxel_size_m: f32) -> Vec<Point> {
+    let finite = points.iter().filter(|p| p.is_finite());
+    if !(voxel_size_m.is_finite() && voxel_size_m > 0.0) {
+        return finite.copied().collect();
+    }
+    let mut slot_of: HashMap<[i32; 3], usize> = HashMap::with_capacity(points.len() / 4);
+    // Per voxel: sums of x, y, z and intensity in f64, and the count.
+    let mut sums: Vec<([f64; 4], u32)> = Vec::with_capacity(points.len() / 4);
+    for p in finite {
+        let slot = *slot_of.entry(voxel_key(p, voxel_size_m)).or_insert_with(|| {
+            sums.push(([0.0; 4], 0));
+            sums.len() - 1
+        });
+        let (sum, count) = &mut sums[slot];
+        for (s, v) in sum.iter_mut().zip([p.x, p.y, p.z, p.intensity]) {
+            *s += f64::from(v);
+        }
+        *count += 1;
+    }
+    sums.iter()
+        .map(|(sum, count)| {
+            let n = f64::from(*count);
+            Point::with_intensity(
+                (sum[0] / n) as f32,
+                (sum[1] / n) as f32,
+                (sum[2] / n) as f32,
+                (sum[3] / n) as f32,
+            )
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn centroids_average_each_voxel_in_order_of_first_appearance() {
+        let points = vec![
+            Point::with_intensity(0.1, 0.1, 0.1, 1.0),
+            Point::with_intensity(1.5, 0.1, 0.1, 5.0),
+            Point::with_intensity(0.3, 0.5, 0.9, 3.0),
+            Point::new(f32::NAN, 0.0, 0.0),
+            Point::with_intensity(-0.5, 0.1, 0.1, 2.0),
+        ];
+        let kept = voxel_centroids(&points, 1.0);
+        assert_eq!(kept.len(), 3);
+        assert_eq!(kept[0], Point::with_intensity(0.2, 0.3, 0.5, 2.0));
+        assert_eq!(kept[1], points[1]);
+        assert_eq!(kept[2], points[4]);
+        assert_eq!(voxel_centroids(&points, 0.0).len(), 4);
+    }
 
     #[test]
     fn keeps_one_point_per_voxel_in_order() {

@@ -21,7 +21,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use rayon::prelude::*;
 use skid_core::CloudView;
-use skid_geometry::voxel_downsample;
+use skid_geometry::{voxel_centroids, voxel_downsample};
 
 /// Bins per angle feature.
 pub const BINS_PER_FEATURE: usize = 11;
@@ -63,13 +63,25 @@ impl Features {
     }
 }
 
-/// The cloud voxel-sampled (first point per voxel, in input order, non-finite points dropped) as f32
-/// vectors; a non-positive voxel size keeps every finite point.
-pub fn voxel_sample(cloud: CloudView<'_>, voxel_size_m: f32) -> Vec<Vector3<f32>> {
-    voxel_downsample(cloud.points(), voxel_size_m)
-        .iter()
-        .map(|p| Vector3::new(p.x, p.y, p.z))
-        .collect()
+/// How a voxel grid picks the point that stands for each voxel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum VoxelSampling {
+    /// The centroid of the voxel's points, as the reference KISS-Matcher samples: averaging takes the
+    /// range noise out of the positions, so normals, features and correspondences are more precise.
+    Centroid,
+    /// The first point met in each voxel (a real measurement, as KISS-ICP keeps).
+    FirstPoint,
+}
+
+/// The cloud voxel-sampled as `sampling` says (non-finite points dropped, voxels in the order first met)
+/// as f32 vectors; a non-positive voxel size keeps every finite point.
+pub fn voxel_sample(cloud: CloudView<'_>, voxel_size_m: f32, sampling: VoxelSampling) -> Vec<Vector3<f32>> {
+    let sampled = match sampling {
+        VoxelSampling::Centroid => voxel_centroids(cloud.points(), voxel_size_m),
+        VoxelSampling::FirstPoint => voxel_downsample(cloud.points(), voxel_size_m),
+    };
+    sampled.iter().map(|p| Vector3::new(p.x, p.y, p.z)).collect()
 }
 
 /// A 3-D kd-tree over points, items being their indices.

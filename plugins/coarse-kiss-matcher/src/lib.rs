@@ -3,7 +3,7 @@
 //!
 //! Pipeline (each stage in its own module, parameters in [`KissMatcherConfig`], defaults from the paper
 //! and the reference library):
-//! 1. voxel sampling at v = 0.3 m (first point per voxel, deterministic);
+//! 1. voxel sampling at v = 0.3 m (each voxel's centroid, as the reference samples; deterministic);
 //! 2. [`features`]: Faster-PFH — one radius search per point at 5v, PCA normals within 3v oriented to the
 //!    sensor (the cloud frame's origin), 33-bin histograms;
 //! 3. [`matching`]: mutual nearest neighbours in descriptor space, squared-distance cap 900, ratio test
@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::slots::{CoarseAlignment, CoarseRegistration};
 use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry};
 
+pub use features::VoxelSampling;
 pub use pipeline::{KissMatcherReport, StageTimings};
 
 /// The plugin's name in the coarse slot.
@@ -50,6 +51,8 @@ pub enum PruningMode {
 pub struct KissMatcherConfig {
     /// Voxel size v of the sampling, in metres; the radii and noise bounds scale with it.
     pub voxel_size_m: f64,
+    /// `centroid` (the reference's sampling) or `first_point` of each voxel.
+    pub voxel_sampling: VoxelSampling,
     /// Normal radius as a multiple of v.
     pub normal_radius_gain: f64,
     /// FPFH radius as a multiple of v.
@@ -88,6 +91,7 @@ impl Default for KissMatcherConfig {
     fn default() -> Self {
         Self {
             voxel_size_m: 0.3,
+            voxel_sampling: VoxelSampling::Centroid,
             normal_radius_gain: 3.0,
             fpfh_radius_gain: 5.0,
             min_normal_neighbours: 3,

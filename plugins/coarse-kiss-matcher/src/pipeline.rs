@@ -92,8 +92,10 @@ pub(crate) fn run(
     let voxel_m = config.voxel_size_m as f32;
     let min_points = config.min_inliers.max(3);
 
-    let (target_points, source_points) =
-        rayon::join(|| voxel_sample(target, voxel_m), || voxel_sample(source, voxel_m));
+    let (target_points, source_points) = rayon::join(
+        || voxel_sample(target, voxel_m, config.voxel_sampling),
+        || voxel_sample(source, voxel_m, config.voxel_sampling),
+    );
     report.target_points = target_points.len();
     report.source_points = source_points.len();
     report.timings.voxel_s = start.elapsed().as_secs_f64();
@@ -219,10 +221,11 @@ fn solve(
     target: &[Vector3<f64>],
 ) -> Option<(Pose, usize, usize)> {
     let n = source.len();
+    let order = chain_order(n);
     let (source_tims, target_tims): (Vec<_>, Vec<_>) = (0..n)
         .map(|k| {
-            let next = (k + 1) % n;
-            (source[next] - source[k], target[next] - target[k])
+            let (here, next) = (order[k], order[(k + 1) % n]);
+            (source[next] - source[here], target[next] - target[here])
         })
         .unzip();
     let translation_bound_m = config.noise_bound_m(config.solver_noise_bound_gain);
@@ -256,4 +259,23 @@ fn solve(
             inliers.iter().filter(|&&i| i).count(),
         )
     })
+}
+
+/// A fixed pseudo-random order of `n` correspondences (Fisher–Yates driven by SplitMix64 seeded with
+/// `n`), so consecutive links of the measurement chain join correspondences far apart in the scan.
+fn chain_order(n: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..n).collect();
+    let mut state = (n as u64) ^ 0x9e37_79b9_7f4a_7c15;
+    let mut next = || {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    for i in (1..n).rev() {
+        let j = (next() % (i as u64 + 1)) as usize;
+        order.swap(i, j);
+    }
+    order
 }

@@ -3,7 +3,8 @@
 //! & Bolles, CACM 1981) with an edge-length pre-check — the classic global registration that KISS-Matcher
 //! (Lim et al., ICRA 2025) is compared against.
 //!
-//! Voxel sampling, features and matching are KISS-Matcher's shared modules
+//! Voxel sampling (voxel centroids, as Open3D's baseline pipeline samples), features and matching are
+//! KISS-Matcher's shared modules
 //! ([`skid_coarse_kiss_matcher::features`], [`skid_coarse_kiss_matcher::matching`]); only the estimator
 //! differs. The defaults follow the usual baseline set-up: mutual nearest neighbours without a ratio
 //! test or cap, inlier distance 1.5 v, edge similarity 0.9, up to 100,000 draws at 0.999 confidence.
@@ -15,7 +16,7 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use skid_coarse_kiss_matcher::features::{FeatureParams, compute_features, voxel_sample};
+use skid_coarse_kiss_matcher::features::{FeatureParams, VoxelSampling, compute_features, voxel_sample};
 use skid_coarse_kiss_matcher::matching::{MatchParams, match_descriptors};
 use skid_coarse_kiss_matcher::thread_pool;
 use skid_core::slots::{CoarseAlignment, CoarseRegistration};
@@ -240,8 +241,10 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
         report
     };
     let voxel_m = config.voxel_size_m as f32;
-    let (target_points, source_points) =
-        rayon::join(|| voxel_sample(target, voxel_m), || voxel_sample(source, voxel_m));
+    let (target_points, source_points) = rayon::join(
+        || voxel_sample(target, voxel_m, VoxelSampling::Centroid),
+        || voxel_sample(source, voxel_m, VoxelSampling::Centroid),
+    );
     report.points = (target_points.len(), source_points.len());
     let params = config.feature_params();
     let (target_features, source_features) = rayon::join(
