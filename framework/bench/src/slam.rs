@@ -1,10 +1,11 @@
 //! The SKiD-SLAM paper's Table III: ATE and ARE of robot α (after its own SE(3) Umeyama alignment) and
-//! of robot β placed in α's frame — the paper's multi-robot alignment metric
+//! of each other robot β placed in α's frame — the paper's multi-robot alignment metric
 //! `T_β,APE = (T^GT_β)⁻¹ · T^GT_α · T^α_β` (skid-eval's `alpha_beta`) — per simulated world, for the
 //! default pipeline (SOLiD + KISS-Matcher + GICP + PCM) against the DiSCo-like (Scan Context + ICP +
-//! PCM) and DCL-like (LiDAR-Iris + ICP) profiles. Every run is the real runtime: a two-robot
-//! `skid_runtime::Fleet` in lockstep built from `configs/default.toml`, the pipeline's profile and the
-//! bench's overrides.
+//! PCM) and DCL-like (LiDAR-Iris + ICP) profiles. Every run is the real runtime with each pipeline's own
+//! front-end: a `skid_runtime::Fleet` in lockstep built from `configs/default.toml`, the pipeline's
+//! profile and the bench's overrides, on a simulator mission in which the robots start apart and meet
+//! (`explore_meet`: every pair crosses at a junction and one drives the other's sector backwards).
 //!
 //! The numbers are the runtime's own `RunMetrics` (the run's `metrics.json`): `T^α_β` is the SE(3)
 //! Umeyama fit of β's keyframes as α's back-end holds them onto β's own estimate of them.
@@ -59,11 +60,13 @@ impl Default for SlamSettings {
     }
 }
 
-/// One world and pipeline.
+/// One world, pipeline and robot β (robot 0 is α).
 #[derive(Clone, Debug, Serialize)]
 pub struct SlamRow {
     pub world: String,
     pub pipeline: String,
+    /// Which robot is β.
+    pub beta_robot: usize,
     pub scans_per_robot: usize,
     pub keyframes_alpha: usize,
     pub keyframes_beta: usize,
@@ -86,14 +89,14 @@ pub struct SlamRow {
     pub note: String,
 }
 
-/// Runs one world with one pipeline and evaluates it.
+/// Runs one world with one pipeline and evaluates it: one row per robot β ≥ 1.
 pub fn run_one(
     settings: &SlamSettings,
     world: &str,
     pipeline: &Pipeline,
     registry: &Registry,
     out: &Path,
-) -> Result<SlamRow> {
+) -> Result<Vec<SlamRow>> {
     let name = format!("{world}-{}", pipeline.profile.as_deref().unwrap_or("default"));
     let mut sets = settings.sets.clone();
     sets.extend([
@@ -123,32 +126,44 @@ pub fn run_one(
             }
         })
         .with_context(|| format!("running {name}"))?;
-    // The runtime's own metrics (also in the run's `metrics.json`): robot 0 is α, robot 1 is β.
+    // The runtime's own metrics (also in the run's `metrics.json`): robot 0 is α, every other one a β.
     let (_, metrics) = skid_runtime::write_outputs(&fleet, &summary)?;
-    let (Some(alpha), Some(beta)) = (metrics.robots.first(), metrics.robots.get(1)) else {
-        anyhow::bail!("{name}: the comparison needs two robots");
+    let Some(alpha) = metrics.robots.first() else {
+        anyhow::bail!("{name}: the comparison needs at least two robots");
     };
-    let alignment = beta.alignment.as_ref();
-    let bytes = |kind: &str| beta.bytes_sent_by_kind.get(kind).copied().unwrap_or(0);
-    Ok(SlamRow {
-        world: world.to_owned(),
-        pipeline: pipeline.name.clone(),
-        scans_per_robot: alpha.scans,
-        keyframes_alpha: alpha.keyframes,
-        keyframes_beta: beta.keyframes,
-        inter_robot_loops: metrics.inter_robot_loops_accepted,
-        ate_alpha_m: alpha.trajectory.as_ref().map(|t| t.ate_m.rmse),
-        are_alpha_deg: alpha.trajectory.as_ref().map(|t| t.are_deg.rmse),
-        ate_beta_m: alignment.map(|a| a.beta_in_alpha_ate_m.rmse),
-        are_beta_deg: alignment.map(|a| a.beta_in_alpha_are_deg.rmse),
-        t_beta_ape_m: alignment.map(|a| a.beta_alignment_error.translation_m),
-        t_beta_ape_deg: alignment.map(|a| a.beta_alignment_error.rotation_deg),
-        ate_beta_own_m: beta.trajectory.as_ref().map(|t| t.ate_m.rmse),
-        descriptor_bytes_sent: bytes("descriptors"),
-        cloud_bytes_sent: bytes("cloud"),
-        run_wall_s: summary.wall_s,
-        note: beta.alignment_unavailable.clone().unwrap_or_default(),
-    })
+    if metrics.robots.len() < 2 {
+        anyhow::bail!("{name}: the comparison needs at least two robots");
+    }
+    Ok(metrics
+        .robots
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(beta_robot, beta)| {
+            let alignment = beta.alignment.as_ref();
+            let bytes = |kind: &str| beta.bytes_sent_by_kind.get(kind).copied().unwrap_or(0);
+            SlamRow {
+                world: world.to_owned(),
+                pipeline: pipeline.name.clone(),
+                beta_robot,
+                scans_per_robot: alpha.scans,
+                keyframes_alpha: alpha.keyframes,
+                keyframes_beta: beta.keyframes,
+                inter_robot_loops: metrics.inter_robot_loops_accepted,
+                ate_alpha_m: alpha.trajectory.as_ref().map(|t| t.ate_m.rmse),
+                are_alpha_deg: alpha.trajectory.as_ref().map(|t| t.are_deg.rmse),
+                ate_beta_m: alignment.map(|a| a.beta_in_alpha_ate_m.rmse),
+                are_beta_deg: alignment.map(|a| a.beta_in_alpha_are_deg.rmse),
+                t_beta_ape_m: alignment.map(|a| a.beta_alignment_error.translation_m),
+                t_beta_ape_deg: alignment.map(|a| a.beta_alignment_error.rotation_deg),
+                ate_beta_own_m: beta.trajectory.as_ref().map(|t| t.ate_m.rmse),
+                descriptor_bytes_sent: bytes("descriptors"),
+                cloud_bytes_sent: bytes("cloud"),
+                run_wall_s: summary.wall_s,
+                note: beta.alignment_unavailable.clone().unwrap_or_default(),
+            }
+        })
+        .collect())
 }
 
 fn cell(value: Option<f64>) -> String {
@@ -171,7 +186,7 @@ pub fn slam_markdown(settings: &SlamSettings, rows: &[SlamRow]) -> String {
             for world in &settings.worlds {
                 let row = rows
                     .iter()
-                    .find(|r| &r.world == world && r.pipeline == pipeline.name);
+                    .find(|r| &r.world == world && r.pipeline == pipeline.name && r.beta_robot == 1);
                 let values = row.map_or([None; 4], |r| {
                     [r.ate_alpha_m, r.ate_beta_m, r.are_alpha_deg, r.are_beta_deg]
                 });
@@ -183,6 +198,7 @@ pub fn slam_markdown(settings: &SlamSettings, rows: &[SlamRow]) -> String {
     let details: Vec<String> = [
         "world",
         "pipeline",
+        "β",
         "inter-robot loops",
         "T_β,APE [m]",
         "T_β,APE [°]",
@@ -200,6 +216,7 @@ pub fn slam_markdown(settings: &SlamSettings, rows: &[SlamRow]) -> String {
             vec![
                 r.world.clone(),
                 r.pipeline.clone(),
+                format!("robot {}", r.beta_robot),
                 r.inter_robot_loops.to_string(),
                 cell(r.t_beta_ape_m),
                 cell(r.t_beta_ape_deg),
@@ -212,7 +229,7 @@ pub fn slam_markdown(settings: &SlamSettings, rows: &[SlamRow]) -> String {
         })
         .collect();
     format!(
-        "# table3-slam\n\nATE and ARE (RMSE) of robot α after SE(3) Umeyama alignment and of robot β placed through α's alignment and the back-end's `T^α_β` (Table III shape; the paper's planetary terrains: SKiD 0.198 / 1.046 m, 0.546 / 0.080°).\n\n{}\n{}\n{} robots, {} scans per robot (10 Hz), runtime overrides: `{}`. N/A: β never shared a loop with α, so it has no place in α's frame.\n",
+        "# table3-slam\n\nATE and ARE (RMSE) of robot α (robot 0) after SE(3) Umeyama alignment and of robot β (robot 1) placed through α's alignment and the back-end's `T^α_β` (Table III shape; the paper's planetary terrains: SKiD 0.198 / 1.046 m, 0.546 / 0.080°). Each pipeline runs its own front-end on the simulator's LiDAR and IMU.\n\n{}\nEvery robot β against α:\n\n{}\n{} robots, {} scans per robot (10 Hz), runtime overrides: `{}`. N/A: β never shared a loop with α, so it has no place in α's frame.\n",
         crate::report::markdown_table(&header, &body),
         crate::report::markdown_table(&details, &detail_rows),
         settings.robots,

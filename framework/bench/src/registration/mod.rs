@@ -4,6 +4,8 @@
 //! built through the registry as the runtime builds them, each method run on a pair with its wall and
 //! CPU time, and the paper's success test (translation < 2 m and rotation < 5°).
 
+pub mod pairs;
+pub mod reference;
 pub mod sim;
 pub mod sweep;
 
@@ -118,6 +120,8 @@ pub fn check_methods(names: &[String]) -> Result<()> {
 pub struct Outcome {
     pub estimate: Option<Pose>,
     pub valid: bool,
+    /// Final inliers of a coarse method (of the coarse stage when refined); `None` for fine methods.
+    pub inliers: Option<usize>,
     pub time_ms: f64,
     pub cpu_ms: Option<f64>,
 }
@@ -142,11 +146,15 @@ fn timed<T>(work: impl FnOnce() -> T) -> (T, f64, Option<f64>) {
 
 fn coarse(method: &mut dyn CoarseRegistration, target: &Cloud, source: &Cloud) -> Outcome {
     let (result, time_ms, cpu_ms) = timed(|| method.align(target.view(), source.view(), None));
-    outcome(
-        result.map(|a| (a.target_from_source, a.valid)).ok(),
-        time_ms,
-        cpu_ms,
-    )
+    let inliers = result.as_ref().ok().map(|a| a.inlier_count);
+    Outcome {
+        inliers,
+        ..outcome(
+            result.map(|a| (a.target_from_source, a.valid)).ok(),
+            time_ms,
+            cpu_ms,
+        )
+    }
 }
 
 /// An outcome from an estimate and its validity (`None` = the method failed).
@@ -154,6 +162,7 @@ fn outcome(result: Option<(Pose, bool)>, time_ms: f64, cpu_ms: Option<f64>) -> O
     Outcome {
         estimate: result.map(|(pose, _)| pose),
         valid: result.is_some_and(|(_, valid)| valid),
+        inliers: None,
         time_ms,
         cpu_ms,
     }
@@ -187,6 +196,7 @@ fn coarse_fine(
     Outcome {
         time_ms: first.time_ms + second.time_ms,
         cpu_ms: first.cpu_ms.zip(second.cpu_ms).map(|(a, b)| a + b),
+        inliers: first.inliers,
         ..second
     }
 }

@@ -1,18 +1,21 @@
-//! The SKiD-SLAM paper's scan-level registration table on simulated pairs (`skid-sim`): per world,
-//! pairs along one route — same direction 10 m apart, reverse viewpoint 10 m apart, and partial overlap
-//! 25 m apart — and per method RTE, RRE and success rate. Fine-only methods start from an
-//! odometry-like prior (the truth off by a fixed-seed error of up to `prior_translation_m` horizontally
-//! and `prior_yaw_deg` in yaw); coarse methods need no prior.
+//! The SKiD-SLAM paper's scan-level registration table on simulated pairs (`skid-sim`, see [`pairs`]):
+//! per world and pair kind, every method's RTE, RRE and success rate, the final inliers of the coarse
+//! methods, and the reference KISS-Matcher (Python `kiss-matcher`) on the same pairs as its own row.
+//! Fine-only methods start from an odometry-like prior (the truth off by a fixed-seed error of up to
+//! `prior_translation_m` horizontally and `prior_yaw_deg` in yaw); coarse methods need no prior.
+//!
+//! [`pairs`]: super::pairs
 
 use anyhow::Result;
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use skid_core::{Cloud, Pose};
+use skid_core::Pose;
 use skid_eval::registration::RegistrationPair;
-use skid_sim::motion::{MotionSpec, trajectory};
-use skid_sim::{ScanNoise, Sensor, World, WorldKind, plan_route, simulate_sweep};
+use skid_sim::WorldKind;
 
-use super::{METHOD_NAMES, Methods, check_methods, summary};
+use super::pairs::{PairGeometry, PairKind, SimPair, sim_pairs, unit_hash};
+use super::reference::{REFERENCE_NAME, reference_kiss_matcher};
+use super::{METHOD_NAMES, Methods, check_methods, pose_errors, summary};
 use crate::Report;
 
 /// Parameters of the simulated table.
@@ -24,14 +27,20 @@ pub struct SimTableSettings {
     /// `planetary`, `cave`, `urban`.
     pub worlds: Vec<String>,
     pub sensor: String,
-    /// Pairs per world and pair kind (three kinds).
+    /// Pairs per world and pair kind.
     pub pairs_per_kind: usize,
+    pub pair_kinds: Vec<PairKind>,
+    pub geometry: PairGeometry,
     pub seed: u64,
     /// Error of the fine methods' prior: up to this much horizontally, metres ...
     pub prior_translation_m: f64,
     /// ... and this much in yaw, degrees.
     pub prior_yaw_deg: f64,
     pub methods: Vec<String>,
+    /// Run the reference KISS-Matcher (Python `kiss-matcher`) on the same pairs.
+    pub reference: bool,
+    /// The reference's voxel size (its examples' 0.3 m, the same as SKiD's default).
+    pub reference_voxel_m: f64,
 }
 
 impl Default for SimTableSettings {
@@ -41,6 +50,8 @@ impl Default for SimTableSettings {
             worlds: ["planetary", "cave", "urban"].map(str::to_owned).to_vec(),
             sensor: "os1-64".to_owned(),
             pairs_per_kind: 4,
+            pair_kinds: PairKind::ALL.to_vec(),
+            geometry: PairGeometry::default(),
             seed: 7,
             prior_translation_m: 1.5,
             prior_yaw_deg: 20.0,
@@ -50,125 +61,176 @@ impl Default for SimTableSettings {
                 .filter(|name| !matches!(**name, "RANSAC" | "GICP (identity)"))
                 .map(|name| (*name).to_owned())
                 .collect(),
+            reference: true,
+            reference_voxel_m: 0.3,
         }
     }
 }
 
-/// A simulated scan pair: target, source and the true `target_from_source`.
-pub struct SimPair {
-    pub kind: &'static str,
-    pub target: Cloud,
-    pub source: Cloud,
+/// One method on one pair.
+#[derive(Clone, Debug, Serialize)]
+pub struct PairResult {
+    pub world: String,
+    pub kind: PairKind,
+    pub anchor: usize,
+    pub method: String,
+    pub translation_error_m: Option<f64>,
+    pub rotation_error_deg: Option<f64>,
+    pub success: bool,
+    pub valid: bool,
+    /// Final inliers of a coarse method (of its coarse stage when refined).
+    pub inliers: Option<usize>,
+    pub time_ms: f64,
+    pub cpu_ms: Option<f64>,
+    #[serde(skip)]
+    pub estimate: Option<Pose>,
+    #[serde(skip)]
     pub truth: Pose,
 }
 
-/// Pairs from one world: along one route, a target pose every ~70 m and a source pose 10 m (same
-/// direction or turned around) or 25 m (partial overlap) further on.
-pub fn sim_pairs(kind: WorldKind, sensor: &str, per_kind: usize, seed: u64) -> Result<Vec<SimPair>> {
-    let world = World::generate(kind, seed);
-    let sensor = Sensor::by_name(sensor)?;
-    let route = plan_route(&world, seed, 0, 80.0 * per_kind as f64 + 60.0);
-    let path = trajectory(&world, &route, &MotionSpec::default());
-    // Poses every metre of travel, so "10 m further" is a distance along the route.
-    let mut along: Vec<Pose> = Vec::new();
-    let mut t = path.start_s();
-    while t <= path.end_s() {
-        let pose = path.pose_at(t);
-        if along
-            .last()
-            .is_none_or(|last: &Pose| (pose.translation.vector - last.translation.vector).norm() >= 1.0)
-        {
-            along.push(pose);
-        }
-        t += 0.02;
+/// The prior a fine-only method starts from on pair `index`: the truth off by a fixed-seed error.
+fn prior_for(settings: &SimTableSettings, index: usize, truth: &Pose) -> Pose {
+    let signed = |salt: u64| 2.0 * unit_hash(index, salt) - 1.0;
+    truth
+        * Pose::new(
+            Vector3::new(
+                settings.prior_translation_m * signed(1),
+                settings.prior_translation_m * signed(2),
+                0.0,
+            ),
+            Vector3::z() * settings.prior_yaw_deg.to_radians() * signed(3),
+        )
+}
+
+fn result_for(world: WorldKind, pair: &SimPair, method: &str) -> PairResult {
+    PairResult {
+        world: world.to_string(),
+        kind: pair.kind,
+        anchor: pair.anchor,
+        method: method.to_owned(),
+        translation_error_m: None,
+        rotation_error_deg: None,
+        success: false,
+        valid: false,
+        inliers: None,
+        time_ms: 0.0,
+        cpu_ms: None,
+        estimate: None,
+        truth: pair.truth,
     }
-    let scan = |pose: &Pose, key: u64| -> Cloud {
-        let pose = *pose;
-        let points = simulate_sweep(
-            &world,
-            &sensor,
-            &move |_| pose,
-            0.0,
-            &ScanNoise::default(),
-            key,
-            true,
-        );
-        Cloud::new(points.iter().map(|p| p.point()).collect())
-    };
-    let mut pairs = Vec::new();
-    for k in 0..per_kind {
-        let anchor = 20 + 70 * k;
-        for (name, gap, turn) in [
-            ("same direction 10 m", 10, false),
-            ("reverse 10 m", 10, true),
-            ("partial 25 m", 25, false),
-        ] {
-            let (Some(a), Some(b)) = (along.get(anchor), along.get(anchor + gap)) else {
-                continue;
-            };
-            let b = if turn {
-                b * UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::PI)
-            } else {
-                *b
-            };
-            let key = seed ^ ((k as u64) << 8) ^ u64::from(gap as u32) ^ u64::from(turn);
-            pairs.push(SimPair {
-                kind: name,
-                target: scan(a, key),
-                source: scan(&b, key ^ 0xabcd),
-                truth: a.inverse() * b,
+}
+
+/// Runs every method (and the reference) on one world's pairs.
+fn world_results(
+    methods: &mut Methods,
+    settings: &SimTableSettings,
+    world: WorldKind,
+) -> Result<Vec<PairResult>> {
+    let pairs = sim_pairs(
+        world,
+        &settings.sensor,
+        settings.pairs_per_kind,
+        settings.seed,
+        &settings.pair_kinds,
+        &settings.geometry,
+    )?;
+    let mut results = Vec::new();
+    for (index, pair) in pairs.iter().enumerate() {
+        let prior = prior_for(settings, index, &pair.truth);
+        for method in &settings.methods {
+            let outcome = methods.run(method, &pair.target, &pair.source, &prior)?;
+            let (translation, rotation, success) = pose_errors(&outcome.estimate, &pair.truth);
+            results.push(PairResult {
+                translation_error_m: translation,
+                rotation_error_deg: rotation,
+                success,
+                valid: outcome.valid,
+                inliers: outcome.inliers,
+                time_ms: outcome.time_ms,
+                cpu_ms: outcome.cpu_ms,
+                estimate: outcome.estimate,
+                ..result_for(world, pair, method)
             });
         }
+        eprintln!("{world}: pair {index} ({}) done", pair.kind.label());
     }
-    Ok(pairs)
+    if settings.reference {
+        let clouds: Vec<_> = pairs.iter().map(|p| (&p.target, &p.source)).collect();
+        if let Some(outcomes) = reference_kiss_matcher(&clouds, settings.reference_voxel_m)? {
+            for (pair, outcome) in pairs.iter().zip(outcomes) {
+                let (translation, rotation, success) = pose_errors(&Some(outcome.estimate), &pair.truth);
+                results.push(PairResult {
+                    translation_error_m: translation,
+                    rotation_error_deg: rotation,
+                    success,
+                    valid: outcome.valid,
+                    inliers: Some(outcome.final_inliers),
+                    time_ms: outcome.time_ms,
+                    estimate: Some(outcome.estimate),
+                    ..result_for(world, pair, REFERENCE_NAME)
+                });
+            }
+        }
+    }
+    Ok(results)
 }
 
-/// A fixed pseudo-random number in [-1, 1) for pair `index` and `salt`.
-fn unit(index: usize, salt: u64) -> f64 {
-    let h = (index as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ salt.wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    ((h >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+/// The summary row of `method` over the results that pass `keep`, labelled `data`.
+fn push_summary(
+    report: &mut Report,
+    data: &str,
+    method: &str,
+    results: &[PairResult],
+    keep: &dyn Fn(&PairResult) -> bool,
+) -> Result<()> {
+    let chosen: Vec<&PairResult> = results.iter().filter(|r| r.method == method && keep(r)).collect();
+    if chosen.is_empty() {
+        return Ok(());
+    }
+    let estimates: Vec<RegistrationPair> = chosen
+        .iter()
+        .map(|r| RegistrationPair {
+            estimated: r.estimate,
+            ground_truth: r.truth,
+        })
+        .collect();
+    let times: Vec<f64> = chosen.iter().map(|r| r.time_ms).collect();
+    let cpu: Vec<f64> = chosen.iter().filter_map(|r| r.cpu_ms).collect();
+    let mut row = serde_json::to_value(summary(data, method, &estimates, &times, &cpu)?)?;
+    let mut inliers: Vec<usize> = chosen.iter().filter_map(|r| r.inliers).collect();
+    inliers.sort_unstable();
+    row["median_inliers"] = serde_json::json!(inliers.get(inliers.len() / 2));
+    report.push(&row)
 }
 
-/// Runs every method on every world's pairs and pushes one row per world and method into `report`.
-pub fn sim_table(methods: &mut Methods, settings: &SimTableSettings, report: &mut Report) -> Result<()> {
+/// Runs every method on every world's pairs, pushes one summary row per world, pair set and method
+/// into `report` (pair sets: every kind but partial overlap, then each kind alone) and returns every
+/// pair's result.
+pub fn sim_table(
+    methods: &mut Methods,
+    settings: &SimTableSettings,
+    report: &mut Report,
+) -> Result<Vec<PairResult>> {
     check_methods(&settings.methods)?;
+    let mut all = Vec::new();
     for world in &settings.worlds {
         let kind: WorldKind = world.parse()?;
-        let pairs = sim_pairs(kind, &settings.sensor, settings.pairs_per_kind, settings.seed)?;
-        let count = settings.methods.len();
-        let mut estimates: Vec<Vec<RegistrationPair>> = vec![Vec::new(); count];
-        let mut times: Vec<Vec<f64>> = vec![Vec::new(); count];
-        let mut cpu: Vec<Vec<f64>> = vec![Vec::new(); count];
-        for (index, pair) in pairs.iter().enumerate() {
-            let prior = pair.truth
-                * Pose::new(
-                    Vector3::new(
-                        settings.prior_translation_m * unit(index, 1),
-                        settings.prior_translation_m * unit(index, 2),
-                        0.0,
-                    ),
-                    Vector3::z() * settings.prior_yaw_deg.to_radians() * unit(index, 3),
-                );
-            for (m, method) in settings.methods.iter().enumerate() {
-                let outcome = methods.run(method, &pair.target, &pair.source, &prior)?;
-                estimates[m].push(RegistrationPair {
-                    estimated: outcome.estimate,
-                    ground_truth: pair.truth,
-                });
-                times[m].push(outcome.time_ms);
-                cpu[m].extend(outcome.cpu_ms);
+        let results = world_results(methods, settings, kind)?;
+        let mut names: Vec<String> = settings.methods.clone();
+        if results.iter().any(|r| r.method == REFERENCE_NAME) {
+            names.push(REFERENCE_NAME.to_owned());
+        }
+        let overlapping = |r: &PairResult| r.kind != PairKind::Partial;
+        for method in &names {
+            push_summary(report, &format!("sim {kind}"), method, &results, &overlapping)?;
+        }
+        for pair_kind in &settings.pair_kinds {
+            for method in &names {
+                let label = format!("sim {kind}, {}", pair_kind.label());
+                push_summary(report, &label, method, &results, &|r| r.kind == *pair_kind)?;
             }
-            eprintln!("{kind}: pair {index} ({}) done", pair.kind);
         }
-        for (m, method) in settings.methods.iter().enumerate() {
-            report.push(&summary(
-                &format!("sim {kind} ({} pairs)", pairs.len()),
-                method,
-                &estimates[m],
-                &times[m],
-                &cpu[m],
-            )?)?;
-        }
+        all.extend(results);
     }
-    Ok(())
+    Ok(all)
 }

@@ -1,7 +1,11 @@
-//! The yaw sweep of the SKiD-SLAM paper's "success rate vs yaw" figure, on the real HDL-32E pair
-//! (`lidar_scan_pair_fast_gicp`): the target is yawed through a full turn and moved `offset_m` metres in
-//! `directions` directions per yaw; each method's success (translation < 2 m and rotation < 5°) and time
-//! per pair are recorded, and the success rate per yaw is plotted.
+//! The yaw sweep of the SKiD-SLAM paper's "success rate vs yaw" figure: each method's success
+//! (translation < 2 m and rotation < 5°) and time per pair at every yaw of a full turn, and the success
+//! rate per yaw plotted, on two kinds of pairs:
+//! - the real HDL-32E pair (`lidar_scan_pair_fast_gicp`): the target yawed and moved `offset_m` metres in
+//!   `directions` directions per yaw;
+//! - simulated pairs in each of `sim_worlds` (the paper's figure is on planetary terrain): a scan every
+//!   45 m along a route and a second real scan `sim_gap_m` further on with the sensor turned by the yaw
+//!   (see [`super::pairs`]).
 
 use std::path::Path;
 
@@ -10,7 +14,9 @@ use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use skid_core::{Cloud, Pose};
 use skid_eval::plot::{PlotOptions, Series, line_plot};
+use skid_sim::WorldKind;
 
+use super::pairs::{PairKind, RouteSampler};
 use super::{Methods, Row, check_methods, mean, pose_errors};
 use crate::Report;
 
@@ -22,11 +28,19 @@ pub struct SweepSettings {
     pub threads: usize,
     /// Yaw step, degrees (the sweep covers [0°, 360°)).
     pub yaw_step_deg: f64,
-    /// Distance the target is moved, metres.
+    /// Distance the real pair's target is moved, metres.
     pub offset_m: f64,
-    /// Offset directions per yaw, evenly spread.
+    /// Offset directions per yaw for the real pair, evenly spread.
     pub directions: usize,
     pub methods: Vec<String>,
+    /// Simulated worlds swept too (empty: the real pair only).
+    pub sim_worlds: Vec<String>,
+    pub sim_sensor: String,
+    /// Simulated pairs per yaw (targets 45 m apart along one route).
+    pub sim_pairs_per_yaw: usize,
+    /// Distance along the route between a simulated pair's scans, metres.
+    pub sim_gap_m: f64,
+    pub seed: u64,
 }
 
 impl Default for SweepSettings {
@@ -45,6 +59,11 @@ impl Default for SweepSettings {
             ]
             .map(str::to_owned)
             .to_vec(),
+            sim_worlds: Vec::new(),
+            sim_sensor: "os1-64".to_owned(),
+            sim_pairs_per_yaw: 4,
+            sim_gap_m: 6.0,
+            seed: 7,
         }
     }
 }
@@ -52,8 +71,11 @@ impl Default for SweepSettings {
 /// One pair of one method in the sweep.
 #[derive(Clone, Serialize)]
 pub struct SweepEntry {
+    /// `real pair` or `sim <world>`.
+    pub case: String,
     pub yaw_deg: f64,
-    pub direction_deg: f64,
+    /// The offset direction (real pair) or the pair's place along the route (simulated).
+    pub variant: usize,
     pub method: String,
     pub translation_error_m: Option<f64>,
     pub rotation_error_deg: Option<f64>,
@@ -98,51 +120,32 @@ fn success_rate(entries: &[&SweepEntry]) -> f64 {
 /// What the sweep produced.
 pub struct SweepOutcome {
     pub entries: Vec<SweepEntry>,
-    /// The per-yaw success table and the plot, as Markdown.
+    /// The per-yaw success tables and the plots, as Markdown.
     pub markdown: String,
 }
 
-/// Runs the sweep, pushes one summary row per method into `report`, writes `yaw_sweep.json` and
-/// `success_vs_yaw.png` into `out`.
-pub fn yaw_sweep(
+/// A pair of a sweep: target, source and the true `target_from_source`.
+type SweepPair = (Cloud, Cloud, Pose);
+
+/// Runs every method on the pairs `pairs_at(yaw)` gives at every yaw, appending to `entries`.
+fn sweep_case(
     methods: &mut Methods,
     settings: &SweepSettings,
-    report: &mut Report,
-    out: &Path,
-) -> Result<SweepOutcome> {
-    check_methods(&settings.methods)?;
-    if !(settings.yaw_step_deg > 0.0 && settings.yaw_step_deg <= 360.0) {
-        return Err(anyhow!(
-            "yaw_step_deg must be in (0, 360], got {}",
-            settings.yaw_step_deg
-        ));
-    }
-    let (target, source, reference) = read_real_pair()?;
-    let steps = (360.0 / settings.yaw_step_deg).round().max(1.0) as usize;
-    let yaws: Vec<f64> = (0..steps).map(|s| s as f64 * settings.yaw_step_deg).collect();
-    let directions = settings.directions.max(1);
-    let mut entries: Vec<SweepEntry> = Vec::new();
-    for &yaw_deg in &yaws {
-        for d in 0..directions {
-            let direction_deg = 360.0 * d as f64 / directions as f64;
-            let direction = direction_deg.to_radians();
-            let motion = Pose::new(
-                Vector3::new(
-                    settings.offset_m * direction.cos(),
-                    settings.offset_m * direction.sin(),
-                    0.0,
-                ),
-                Vector3::z() * yaw_deg.to_radians(),
-            );
-            let moved = target.view().transformed(&motion);
-            let truth = motion * reference;
+    case: &str,
+    yaws: &[f64],
+    pairs_at: &mut dyn FnMut(f64) -> Result<Vec<SweepPair>>,
+    entries: &mut Vec<SweepEntry>,
+) -> Result<()> {
+    for &yaw_deg in yaws {
+        for (variant, (target, source, truth)) in pairs_at(yaw_deg)?.iter().enumerate() {
             for method in &settings.methods {
-                let outcome = methods.run(method, &moved, &source, &Pose::identity())?;
+                let outcome = methods.run(method, target, source, &Pose::identity())?;
                 let (translation_error_m, rotation_error_deg, success) =
-                    pose_errors(&outcome.estimate, &truth);
+                    pose_errors(&outcome.estimate, truth);
                 entries.push(SweepEntry {
+                    case: case.to_owned(),
                     yaw_deg,
-                    direction_deg,
+                    variant,
                     method: method.clone(),
                     translation_error_m,
                     rotation_error_deg,
@@ -153,21 +156,57 @@ pub fn yaw_sweep(
                 });
             }
         }
-        eprintln!("yaw {yaw_deg:>5.1}° done");
+        eprintln!("{case}: yaw {yaw_deg:>5.1}° done");
     }
-    let mut table = format!(
-        "\n## Real pair: success rate [%] per yaw ({directions} offset directions of {} m each)\n\n| yaw [°] |",
-        settings.offset_m
-    );
+    Ok(())
+}
+
+/// The real pair's yawed and moved copies at `yaw_deg`.
+fn real_pairs(settings: &SweepSettings, pair: &(Cloud, Cloud, Pose), yaw_deg: f64) -> Vec<SweepPair> {
+    let (target, source, reference) = pair;
+    let directions = settings.directions.max(1);
+    (0..directions)
+        .map(|d| {
+            let direction = std::f64::consts::TAU * d as f64 / directions as f64;
+            let motion = Pose::new(
+                Vector3::new(
+                    settings.offset_m * direction.cos(),
+                    settings.offset_m * direction.sin(),
+                    0.0,
+                ),
+                Vector3::z() * yaw_deg.to_radians(),
+            );
+            (
+                target.view().transformed(&motion),
+                source.clone(),
+                motion * reference,
+            )
+        })
+        .collect()
+}
+
+/// The per-yaw table, the plot and the summary rows of one case.
+fn case_results(
+    settings: &SweepSettings,
+    case: &str,
+    title: &str,
+    yaws: &[f64],
+    entries: &[SweepEntry],
+    report: &mut Report,
+    plot_path: &Path,
+) -> Result<String> {
+    let entries: Vec<&SweepEntry> = entries.iter().filter(|e| e.case == case).collect();
+    let mut table = format!("\n## {title}: success rate [%] per yaw\n\n| yaw [°] |");
     for method in &settings.methods {
         table.push_str(&format!(" {method} |"));
     }
     table.push_str(&format!("\n|---|{}\n", "---|".repeat(settings.methods.len())));
-    for &yaw_deg in &yaws {
+    for &yaw_deg in yaws {
         table.push_str(&format!("| {yaw_deg:.0} |"));
         for method in &settings.methods {
             let at: Vec<&SweepEntry> = entries
                 .iter()
+                .copied()
                 .filter(|e| &e.method == method && e.yaw_deg == yaw_deg)
                 .collect();
             table.push_str(&format!(" {:.0} |", success_rate(&at)));
@@ -176,7 +215,7 @@ pub fn yaw_sweep(
     }
     let mut series = Vec::new();
     for method in &settings.methods {
-        let mine: Vec<&SweepEntry> = entries.iter().filter(|e| &e.method == method).collect();
+        let mine: Vec<&SweepEntry> = entries.iter().copied().filter(|e| &e.method == method).collect();
         let points = yaws
             .iter()
             .map(|&yaw_deg| {
@@ -188,7 +227,7 @@ pub fn yaw_sweep(
         let times: Vec<f64> = mine.iter().map(|e| e.time_ms).collect();
         let successes: Vec<&&SweepEntry> = mine.iter().filter(|e| e.success).collect();
         report.push(&Row {
-            data: "real pair, yaw sweep".into(),
+            data: format!("{case}, yaw sweep"),
             method: method.clone(),
             pairs: mine.len(),
             success_rate_percent: success_rate(&mine),
@@ -210,25 +249,119 @@ pub fn yaw_sweep(
             mean_cpu_ms: mean(&mine.iter().filter_map(|e| e.cpu_ms).collect::<Vec<_>>()),
         })?;
     }
-    std::fs::create_dir_all(out)?;
-    std::fs::write(
-        out.join("yaw_sweep.json"),
-        serde_json::to_string_pretty(&entries)?,
-    )?;
     let plot = line_plot(
-        &out.join("success_vs_yaw.png"),
-        &format!(
-            "Success rate vs yaw (real HDL-32E pair, {} m offset)",
-            settings.offset_m
-        ),
+        plot_path,
+        &format!("Success rate vs yaw ({title})"),
         "yaw [deg]",
         "success rate [%]",
         series,
         &PlotOptions::default(),
     )?;
     table.push_str(&format!("\n{}\n", plot.markdown()));
-    Ok(SweepOutcome {
-        entries,
-        markdown: table,
-    })
+    Ok(table)
+}
+
+/// Runs the sweep on the real pair and on every simulated world, pushes one summary row per case and
+/// method into `report`, and writes `yaw_sweep.json` and one `success_vs_yaw*.png` per case into `out`.
+pub fn yaw_sweep(
+    methods: &mut Methods,
+    settings: &SweepSettings,
+    report: &mut Report,
+    out: &Path,
+) -> Result<SweepOutcome> {
+    check_methods(&settings.methods)?;
+    if !(settings.yaw_step_deg > 0.0 && settings.yaw_step_deg <= 360.0) {
+        return Err(anyhow!(
+            "yaw_step_deg must be in (0, 360], got {}",
+            settings.yaw_step_deg
+        ));
+    }
+    std::fs::create_dir_all(out)?;
+    let steps = (360.0 / settings.yaw_step_deg).round().max(1.0) as usize;
+    let yaws: Vec<f64> = (0..steps).map(|s| s as f64 * settings.yaw_step_deg).collect();
+    let mut entries: Vec<SweepEntry> = Vec::new();
+    let real = read_real_pair()?;
+    sweep_case(
+        methods,
+        settings,
+        "real pair",
+        &yaws,
+        &mut |yaw| Ok(real_pairs(settings, &real, yaw)),
+        &mut entries,
+    )?;
+    let mut markdown = case_results(
+        settings,
+        "real pair",
+        &format!(
+            "real HDL-32E pair, {} offset directions of {} m",
+            settings.directions.max(1),
+            settings.offset_m
+        ),
+        &yaws,
+        &entries,
+        report,
+        &out.join("success_vs_yaw.png"),
+    )?;
+    for world in &settings.sim_worlds {
+        let kind: WorldKind = world.parse()?;
+        let count = settings.sim_pairs_per_yaw.max(1);
+        let sampler = RouteSampler::new(
+            kind,
+            &settings.sim_sensor,
+            45.0 * count as f64 + settings.sim_gap_m + 60.0,
+            settings.seed,
+        )?;
+        let anchors: Vec<(usize, Pose, Cloud)> = (0..count)
+            .filter_map(|k| {
+                let index = 20 + 45 * k;
+                let pose = sampler.target_pose(index)?;
+                Some((index, pose, sampler.scan(pose, settings.seed ^ ((k as u64) << 8))))
+            })
+            .collect();
+        let case = format!("sim {kind}");
+        sweep_case(
+            methods,
+            settings,
+            &case,
+            &yaws,
+            &mut |yaw_deg| {
+                Ok(anchors
+                    .iter()
+                    .filter_map(|(index, pose, target)| {
+                        let source_pose = sampler.source_pose(
+                            PairKind::RandomYaw,
+                            *index,
+                            settings.sim_gap_m,
+                            yaw_deg.to_radians(),
+                        )?;
+                        let key = settings.seed ^ ((*index as u64) << 16) ^ (yaw_deg as u64);
+                        Some((
+                            target.clone(),
+                            sampler.scan(source_pose, key),
+                            pose.inverse() * source_pose,
+                        ))
+                    })
+                    .collect())
+            },
+            &mut entries,
+        )?;
+        markdown.push_str(&case_results(
+            settings,
+            &case,
+            &format!(
+                "simulated {kind}, {count} pairs {} m apart along a route, the second sensor turned",
+                settings.sim_gap_m
+            ),
+            &yaws,
+            &entries,
+            report,
+            &out.join(format!("success_vs_yaw_{kind}.png")),
+        )?);
+    }
+    std::fs::write(
+        out.join("yaw_sweep.json"),
+        serde_json::to_string_pretty(&entries)?,
+    )
+    .context("writing yaw_sweep.json")?;
+    Ok(SweepOutcome { entries, markdown })
 }

@@ -1,0 +1,120 @@
+//! The reference KISS-Matcher (the authors' Python package `kiss-matcher`, C++ core) on the same pairs as
+//! SKiD's plugins, run in the same benchmark: the pairs are written as KITTI `.bin` files into a
+//! temporary folder and `python/kiss_matcher_pairs.py` runs under `$SKID_PYTHON` (`cargo xtask bench`
+//! sets it to the benchmark venv, which has the package).
+
+use std::path::Path;
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion};
+use serde::Deserialize;
+use skid_core::{Cloud, Pose};
+
+/// The method name of the reference in tables.
+pub const REFERENCE_NAME: &str = "KISS-Matcher (reference)";
+
+/// What the reference returned for one pair.
+#[derive(Clone, Debug)]
+pub struct ReferenceOutcome {
+    pub estimate: Pose,
+    pub valid: bool,
+    pub final_inliers: usize,
+    pub time_ms: f64,
+}
+
+#[derive(Deserialize)]
+struct Record {
+    pair: usize,
+    target_from_source: Vec<f64>,
+    final_inliers: usize,
+    valid: bool,
+    ms: f64,
+}
+
+/// Writes `cloud` as a KITTI `.bin` (float32 x, y, z, intensity per point), which `skid register` and
+/// the reference's own examples read.
+fn write_kitti_bin(path: &Path, cloud: &Cloud) -> Result<()> {
+    let mut bytes = Vec::with_capacity(cloud.len() * 16);
+    for point in cloud.view().points() {
+        for value in [point.x, point.y, point.z, point.intensity] {
+            bytes.extend_from_slice(&value.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+fn pose_from_row_major(values: &[f64]) -> Result<Pose> {
+    if values.len() != 16 || values.iter().any(|v| !v.is_finite()) {
+        bail!("the reference returned a pose that is not 16 finite numbers");
+    }
+    let matrix = Matrix4::from_row_slice(values);
+    let rotation = Rotation3::from_matrix(&matrix.fixed_view::<3, 3>(0, 0).into_owned());
+    Ok(Pose::from_parts(
+        Translation3::new(matrix[(0, 3)], matrix[(1, 3)], matrix[(2, 3)]),
+        UnitQuaternion::from_rotation_matrix(&rotation),
+    ))
+}
+
+/// Runs the reference on `(target, source)` pairs with voxel size `voxel_m`. `Ok(None)` when
+/// `$SKID_PYTHON` is not set (the row is then left out, and said so on stderr).
+pub fn reference_kiss_matcher(
+    pairs: &[(&Cloud, &Cloud)],
+    voxel_m: f64,
+) -> Result<Option<Vec<ReferenceOutcome>>> {
+    let Some(python) = std::env::var_os("SKID_PYTHON") else {
+        eprintln!(
+            "registration: SKID_PYTHON is not set (cargo xtask bench sets it); the reference KISS-Matcher is skipped"
+        );
+        return Ok(None);
+    };
+    let temporary = tempfile::tempdir().context("creating a folder for the reference's pairs")?;
+    // `SKID_BENCH_KEEP_PAIRS=DIR` keeps the pairs for a look with other tools (`skid register`).
+    let kept = std::env::var_os("SKID_BENCH_KEEP_PAIRS").map(std::path::PathBuf::from);
+    let folder = kept.as_deref().unwrap_or(temporary.path());
+    std::fs::create_dir_all(folder).with_context(|| format!("creating {}", folder.display()))?;
+    for (index, (target, source)) in pairs.iter().enumerate() {
+        write_kitti_bin(&folder.join(format!("{index:04}_target.bin")), target)?;
+        write_kitti_bin(&folder.join(format!("{index:04}_source.bin")), source)?;
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/kiss_matcher_pairs.py");
+    let output = Command::new(python)
+        .arg(&script)
+        .arg(folder)
+        .arg(voxel_m.to_string())
+        .output()
+        .with_context(|| format!("running {}", script.display()))?;
+    if !output.status.success() {
+        bail!(
+            "kiss_matcher_pairs.py failed ({}): {}",
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    let mut outcomes: Vec<Option<ReferenceOutcome>> = vec![None; pairs.len()];
+    for line in String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+    {
+        let record: Record =
+            serde_json::from_str(line).with_context(|| format!("reference output line `{line}`"))?;
+        let slot = outcomes.get_mut(record.pair).with_context(|| {
+            format!(
+                "the reference answered for pair {} of {}",
+                record.pair,
+                pairs.len()
+            )
+        })?;
+        *slot = Some(ReferenceOutcome {
+            estimate: pose_from_row_major(&record.target_from_source)?,
+            valid: record.valid,
+            final_inliers: record.final_inliers,
+            time_ms: record.ms,
+        });
+    }
+    let answered: Option<Vec<ReferenceOutcome>> = outcomes.into_iter().collect();
+    match answered {
+        Some(all) => Ok(Some(all)),
+        None => bail!("the reference did not answer for every pair"),
+    }
+}
