@@ -140,11 +140,10 @@ pub(crate) fn run(
     report.correspondences = matches.len();
     report.alignment.correspondence_count = matches.len();
     report.timings.matching_s = stage.elapsed().as_secs_f64();
-    if matches.len() < config.min_inliers.max(2) {
+    if matches.len() < 2 {
         let reason = format!(
-            "{} correspondences after descriptor matching, at least {} needed",
-            matches.len(),
-            config.min_inliers.max(2)
+            "{} correspondences after descriptor matching, at least 2 needed",
+            matches.len()
         );
         return report.invalid(start, reason);
     }
@@ -175,11 +174,13 @@ pub(crate) fn run(
     let pruned_target: Vec<Vector3<f64>> = kept.iter().map(|&k| matched_target[k]).collect();
     report.pruned = kept.len();
     report.timings.pruning_s = stage.elapsed().as_secs_f64();
-    if kept.len() < config.min_inliers.max(2) {
+    // The solver needs two correspondences; with fewer than `min_inliers` the result is still solved
+    // (as the reference does) and handed back, marked invalid by the final-inlier test below, so a
+    // caller that refines invalid alignments starts from the best estimate there is.
+    if kept.len() < 2 {
         let reason = format!(
-            "{} mutually consistent correspondences after pruning, at least {} needed",
-            kept.len(),
-            config.min_inliers.max(2)
+            "{} mutually consistent correspondences after pruning, at least 2 needed",
+            kept.len()
         );
         return report.invalid(start, reason);
     }
