@@ -137,7 +137,16 @@ pub(crate) fn resolve(
         return Err(invalid(figment, key, reason));
     }
     if let Err(reason) = raw.output.validate() {
-        return Err(invalid(figment, "output.record_voxel_m", reason));
+        // The message starts with the key it is about.
+        let key = [
+            "output.ros2_voxel_m",
+            "output.ros2_domain_id",
+            "output.ros2_connect",
+        ]
+        .into_iter()
+        .find(|key| reason.starts_with(key))
+        .unwrap_or("output.record_voxel_m");
+        return Err(invalid(figment, key, reason));
     }
     let mut slots = BTreeMap::new();
     for slot in Slot::ALL {

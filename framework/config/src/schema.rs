@@ -123,6 +123,20 @@ pub struct OutputSection {
     pub record: bool,
     /// Edge of the voxels the record's keyframe clouds are thinned with, metres (0 keeps every point).
     pub record_voxel_m: f64,
+    /// Publish each robot's odometry, `/tf`, optimised path, map and loops live as ROS 2 topics over
+    /// zenoh, the way `rmw_zenoh` (Jazzy) does, so RViz2 on a ROS 2 machine sees the running fleet.
+    pub ros2: bool,
+    /// Zenoh endpoints the live ROS 2 output connects to (a ROS 2 machine's `rmw_zenohd` router, e.g.
+    /// `tcp/192.168.1.10:7447`).
+    pub ros2_connect: Vec<String>,
+    /// Endpoints it listens on, for ROS 2 nodes or a router to connect to.
+    pub ros2_listen: Vec<String>,
+    /// The ROS 2 domain id (`ROS_DOMAIN_ID`) the topics are published in.
+    pub ros2_domain_id: u32,
+    /// Publish the merged map every this many optimisations (it is also published at the end).
+    pub ros2_map_every: u32,
+    /// Edge of the voxels the live map is thinned with, metres.
+    pub ros2_voxel_m: f64,
 }
 
 impl Default for OutputSection {
@@ -130,6 +144,12 @@ impl Default for OutputSection {
         Self {
             record: true,
             record_voxel_m: 0.5,
+            ros2: false,
+            ros2_connect: Vec::new(),
+            ros2_listen: Vec::new(),
+            ros2_domain_id: 0,
+            ros2_map_every: 5,
+            ros2_voxel_m: 0.5,
         }
     }
 }
@@ -142,6 +162,26 @@ impl OutputSection {
                 "output.record_voxel_m = {} must be finite and non-negative (0 keeps every point)",
                 self.record_voxel_m
             ));
+        }
+        if !(self.ros2_voxel_m.is_finite() && self.ros2_voxel_m > 0.0) {
+            return Err(format!(
+                "output.ros2_voxel_m = {} must be a positive number of metres",
+                self.ros2_voxel_m
+            ));
+        }
+        // rmw_zenoh accepts domain ids up to 232, as DDS does.
+        if self.ros2_domain_id > 232 {
+            return Err(format!(
+                "output.ros2_domain_id = {} must be within 0–232",
+                self.ros2_domain_id
+            ));
+        }
+        for endpoint in self.ros2_connect.iter().chain(&self.ros2_listen) {
+            if !endpoint.contains('/') {
+                return Err(format!(
+                    "output.ros2_connect / ros2_listen: `{endpoint}` is not a zenoh endpoint like `tcp/192.168.1.10:7447`"
+                ));
+            }
         }
         Ok(())
     }

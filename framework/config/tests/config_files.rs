@@ -303,6 +303,11 @@ fn out_of_range_values_are_refused_at_load_time_naming_the_key() {
         ("transport.loopback.link.loss=1.5", "transport.loopback.link.loss"),
         ("source.sim.world=mars", "source.sim.world"),
         ("source.sim.speed_mps=-1", "source.sim.speed_mps"),
+        ("source.sim.mission=orbit", "source.sim.mission"),
+        ("source.sim.keep_right_m=9", "source.sim.keep_right_m"),
+        ("output.ros2_domain_id=300", "output.ros2_domain_id"),
+        ("output.ros2_voxel_m=0", "output.ros2_voxel_m"),
+        ("output.ros2_connect=[\"nowhere\"]", "output.ros2_connect"),
     ];
     for (set, key) in cases {
         let error = ConfigSources {

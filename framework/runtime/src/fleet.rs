@@ -10,6 +10,7 @@ use skid_protocol::{Incoming, Message, ProtocolConfig, ProtocolEndpoint};
 use crate::RuntimeError;
 use crate::frontend::ThreadFeed;
 use crate::host::{Plugins, RobotHost};
+use crate::observer::Observers;
 use crate::summary::RunSummary;
 
 /// Every robot of the run.
@@ -19,6 +20,8 @@ pub struct Fleet {
     /// The in-process hub when the robots talk through the `loopback` transport: its simulated clock
     /// follows the scans' stamps and its link model sees the robots' true positions.
     pub hub: Option<skid_transport_loopback::LoopbackHub>,
+    /// What watches the robots as they run (a live ROS 2 bridge, …).
+    pub observers: Observers,
 }
 
 /// Gives the `loopback` transport's hub a name unique to this fleet, so two runs in one process (tests,
@@ -134,7 +137,12 @@ impl Fleet {
             robots.push(build_host(&config, registry, RobotId(index), session)?);
         }
         let hub = hub_name.and_then(|name| skid_transport_loopback::LoopbackHub::find(&name));
-        Ok(Self { config, robots, hub })
+        Ok(Self {
+            config,
+            robots,
+            hub,
+            observers: Observers::default(),
+        })
     }
 
     /// Runs every robot in lockstep until all sources end (or `max_scans` per robot), calling
@@ -157,9 +165,11 @@ impl Fleet {
                     continue;
                 }
                 let mut outbox = Vec::new();
+                let (scans, optimizations) = (robot.scans.len(), robot.optimizations);
                 robot.finished = !robot
                     .step(&self.config, &mut outbox)
                     .map_err(crate::stop::or_interrupted)?;
+                self.observers.after_step(robot, scans, optimizations);
                 done += usize::from(!robot.finished);
                 if let Some(now_nanos) = robot.scans.last().map(|s| s.stamp_nanos) {
                     outbox.extend(robot.due_cloud_requests(now_nanos, CLOUD_RETRY_NANOS));
@@ -189,6 +199,7 @@ impl Fleet {
         for robot in &mut self.robots {
             robot.optimize(&self.config)?;
         }
+        self.observers.finished(&self.robots);
         Ok(RunSummary::of(self, started.elapsed().as_secs_f64()))
     }
 

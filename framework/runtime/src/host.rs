@@ -155,6 +155,8 @@ pub struct RobotHost {
     pub finished: bool,
     /// Set when the front-end runs on a thread or in another process.
     pub feed: Option<Box<dyn FrontEndFeed>>,
+    /// How many times the back-end has optimised (observers learn of new optimisations from it).
+    pub optimizations: u64,
     keyframes_since_optimize: u32,
 }
 
@@ -202,6 +204,7 @@ impl RobotHost {
             skipped_scans: crate::WarnLimiter::default(),
             finished: false,
             feed: None,
+            optimizations: 0,
             keyframes_since_optimize: 0,
         }
     }
@@ -499,6 +502,7 @@ impl RobotHost {
     /// Optimises the back-end's graph, if there is one.
     pub fn optimize(&mut self, config: &ResolvedConfig) -> Result<(), RuntimeError> {
         self.keyframes_since_optimize = 0;
+        self.optimizations += 1;
         let budget = OptimizeBudget {
             max_iterations: config.loops.optimize_iterations,
             ..OptimizeBudget::default()

@@ -1,5 +1,6 @@
-//! Every loop the robots submitted, placed in robot 0's map frame and classed by where it stands: what
-//! the run record's `/loops` markers and the plots draw, from one table of classes.
+//! Every loop the robots submitted, placed in robot 0's map frame (or in one robot's own map frame) and
+//! classed by where it stands: what the run record's `/loops` markers, the plots and live viewers draw,
+//! from one table of classes.
 
 use skid_core::{KeyframeId, Pose};
 use skid_eval::plot::LoopClass;
@@ -7,7 +8,7 @@ use skid_eval::plot::LoopClass;
 use crate::host::{LoopStanding, RobotHost};
 
 /// The loop classes drawn: the record's marker namespace and colour (RGBA), and the plots' class.
-pub(crate) const LOOP_CLASSES: [(&str, [f32; 4], LoopClass); 4] = [
+pub const LOOP_CLASSES: [(&str, [f32; 4], LoopClass); 4] = [
     ("accepted", [0.1, 0.8, 0.2, 1.0], LoopClass::Accepted),
     (
         "rejected by the alignment check",
@@ -42,8 +43,9 @@ pub fn loop_class_of_namespace(namespace: &str) -> Option<LoopClass> {
         .map(|(_, _, class)| *class)
 }
 
-/// One submitted loop between two keyframe positions in robot 0's map frame.
-pub(crate) struct PlacedLoop {
+/// One submitted loop between two keyframe positions in a map frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlacedLoop {
     /// Its index in [`LOOP_CLASSES`].
     pub class: usize,
     pub target_m: [f64; 3],
@@ -60,29 +62,47 @@ fn keyframe_in_map(robots: &[RobotHost], frames: &[Option<Pose>], id: KeyframeId
     Some([translation.x, translation.y, translation.z])
 }
 
-/// The loops whose two robots are both placed in robot 0's frame (`frames`, one per robot).
-pub(crate) fn placed_loops(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<PlacedLoop> {
+/// `host`'s submitted loops whose two ends `place` can put in a frame.
+fn classed_loops(host: &RobotHost, place: &dyn Fn(KeyframeId) -> Option<[f64; 3]>) -> Vec<PlacedLoop> {
     let mut placed = Vec::new();
-    for robot in robots {
-        for (id, &(_, standing)) in &robot.loop_standing {
-            let Some(closure) = robot.loops.get(id).or_else(|| robot.pending_closures.get(id)) else {
-                continue;
-            };
-            let ends = (
-                keyframe_in_map(robots, frames, closure.target),
-                keyframe_in_map(robots, frames, closure.source),
-            );
-            if let (Some(target_m), Some(source_m)) = ends {
-                let reason = robot.rejection_reasons.get(id).map(String::as_str);
-                placed.push(PlacedLoop {
-                    class: loop_class(standing, reason),
-                    target_m,
-                    source_m,
-                });
-            }
+    for (id, &(_, standing)) in &host.loop_standing {
+        let Some(closure) = host.loops.get(id).or_else(|| host.pending_closures.get(id)) else {
+            continue;
+        };
+        if let (Some(target_m), Some(source_m)) = (place(closure.target), place(closure.source)) {
+            let reason = host.rejection_reasons.get(id).map(String::as_str);
+            placed.push(PlacedLoop {
+                class: loop_class(standing, reason),
+                target_m,
+                source_m,
+            });
         }
     }
     placed
+}
+
+/// The loops whose two robots are both placed in robot 0's frame (`frames`, one per robot).
+pub(crate) fn placed_loops(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<PlacedLoop> {
+    robots
+        .iter()
+        .flat_map(|robot| classed_loops(robot, &|id| keyframe_in_map(robots, frames, id)))
+        .collect()
+}
+
+/// The loops `host` submitted, in its own map frame: each end where `host`'s back-end holds it (a peer's
+/// keyframe is there once a loop joined that peer), or at its odometry pose for the host's own keyframes
+/// outside the graph.
+pub fn own_frame_loops(host: &RobotHost) -> Vec<PlacedLoop> {
+    classed_loops(host, &|id| {
+        let in_graph = host.plugins.backend.as_ref().and_then(|b| b.graph().pose(id));
+        let pose = if id.robot == host.robot {
+            in_graph.or_else(|| host.keyframe_pose(id.index))
+        } else {
+            in_graph
+        }?;
+        let t = pose.translation.vector;
+        Some([t.x, t.y, t.z])
+    })
 }
 
 #[cfg(test)]

@@ -71,6 +71,7 @@ impl SingleRobot {
                 config,
                 robots: vec![host],
                 hub: None,
+                observers: crate::observer::Observers::default(),
             },
             catch_up: CatchUp::default(),
             started: Instant::now(),
@@ -80,6 +81,11 @@ impl SingleRobot {
     /// The one-robot fleet (for [`crate::write_outputs`]).
     pub fn fleet(&self) -> &Fleet {
         &self.fleet
+    }
+
+    /// The one-robot fleet, to attach observers to its robot.
+    pub fn fleet_mut(&mut self) -> &mut Fleet {
+        &mut self.fleet
     }
 
     /// Runs until the source ends (or `run.max_scans`), then lingers for `deploy.linger_s` answering
@@ -135,6 +141,7 @@ impl SingleRobot {
         }
         let config = &self.fleet.config;
         self.fleet.robots[0].optimize(config)?;
+        self.fleet.observers.finished(&self.fleet.robots);
         Ok(RunSummary::of(&self.fleet, started.elapsed().as_secs_f64()))
     }
 
@@ -153,7 +160,9 @@ impl SingleRobot {
             robot.finished = true;
         } else {
             let mut outbox = Vec::new();
+            let (scans, optimizations) = (robot.scans.len(), robot.optimizations);
             robot.finished = !robot.step(config, &mut outbox)?;
+            self.fleet.observers.after_step(robot, scans, optimizations);
             self.catch_up.record(robot.robot, &outbox);
             for message in &outbox {
                 if let Message::CloudRequest(request) = message {

@@ -18,6 +18,7 @@ pub fn run_robot(registry: &Registry, config: ResolvedConfig) -> Result<()> {
         "starting one robot of the fleet"
     );
     let mut robot = skid_runtime::SingleRobot::build(config, registry)?;
+    let _live = super::live_ros2(robot.fleet_mut())?;
     let mut last_report = std::time::Instant::now();
     let outcome = robot.run(|scans| {
         // Several robots may share a terminal: a log line every few seconds rather than a bar.

@@ -46,7 +46,15 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
         let keys = defaults.table().clone();
         let parse_checked = move |params: &Params| -> Result<C, ParamError> {
             let config = params.parse::<C>()?;
-            config.check().map_err(|error| error.locate_in(&keys))?;
+            config.check().map_err(|error| {
+                // The keys an error may name: every default, and keys given that have no default (an
+                // optional parameter left unset by default).
+                let mut named = keys.clone();
+                for (key, value) in params.table() {
+                    named.entry(key.clone()).or_insert_with(|| value.clone());
+                }
+                error.locate_in(&named)
+            })?;
             Ok(config)
         };
         let parse_for_construct = parse_checked.clone();
