@@ -1,7 +1,8 @@
 //! `cargo xtask`: the project's own automation.
 //!
-//! - `ci`: format check, clippy with warnings denied, and the test suite (what `.ci/run` calls), with
-//!   `SKID_PYTHON` pointing at a venv of the pinned Python packages the tests use as independent writers;
+//! - `ci`: format check, clippy with warnings denied, and the test suite with `skid`'s `rerun` feature on
+//!   (what `.ci/run` calls), with `SKID_PYTHON` pointing at a venv of the pinned Python packages the tests
+//!   use as independent writers and readers;
 //! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code);
 //! - `bench <profile>`: runs a benchmark profile in release mode, writing `target/bench/<profile>/`
 //!   (with `--config configs/bench/<profile>.toml` when that file exists);
@@ -89,6 +90,8 @@ fn ci() -> Result<()> {
     clippy.args([
         "clippy",
         "--workspace",
+        "--features",
+        "skid/rerun",
         "--lib",
         "--bins",
         "--examples",
@@ -102,6 +105,8 @@ fn ci() -> Result<()> {
     clippy_tests.args([
         "clippy",
         "--workspace",
+        "--features",
+        "skid/rerun",
         "--tests",
         "--benches",
         "--",
@@ -112,9 +117,11 @@ fn ci() -> Result<()> {
     run(clippy_tests)?;
     // The bag tests write their fixtures with independent Python libraries (rosbags, mcap).
     let python = xtask::python::ensure_python(&xtask::workspace_root())?;
+    // With `skid`'s `rerun` feature (the Rerun SDK, off by default): one build whose features serve every
+    // test, so the crates the SDK shares with the rest are not built twice.
     let mut test = cargo();
-    test.args(["test", "--workspace"]);
-    test.env(xtask::python::PYTHON_VAR, python);
+    test.args(["test", "--workspace", "--features", "skid/rerun"]);
+    test.env(xtask::python::PYTHON_VAR, &python);
     run(test)
 }
 

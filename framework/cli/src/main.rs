@@ -16,6 +16,8 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 mod commands;
 mod logging;
+#[cfg(feature = "rerun")]
+mod rerun_view;
 mod signals;
 
 use std::path::PathBuf;
@@ -56,6 +58,13 @@ enum Command {
         profile_flag: Option<String>,
         #[command(flatten)]
         layers: LayerArgs,
+        /// Stream the run to a running Rerun viewer at URL (default rerun+http://127.0.0.1:9876/proxy;
+        /// start one with `rerun`). Needs skid built with `--features rerun`.
+        #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "rerun+http://127.0.0.1:9876/proxy")]
+        rerun: Option<String>,
+        /// Save the run as a Rerun recording (.rrd) for `rerun FILE.rrd`. Needs `--features rerun`.
+        #[arg(long, value_name = "FILE", conflicts_with = "rerun")]
+        rerun_save: Option<PathBuf>,
     },
     /// List every registered plugin: slot, name, summary and default parameters.
     Plugins {
@@ -360,7 +369,15 @@ fn main() -> ExitCode {
             profile,
             profile_flag,
             layers,
-        } => commands::run(&registry, profile.or(profile_flag), &layers),
+            rerun,
+            rerun_save,
+        } => {
+            let viewers = commands::viewers::Viewers {
+                rerun_url: rerun,
+                rerun_save,
+            };
+            commands::run(&registry, profile.or(profile_flag), &layers, &viewers)
+        }
         Command::Plugins { slot, json } => commands::plugins(&registry, slot.as_deref(), json),
         Command::Config(ConfigCommand::Show { profile, layers }) => {
             commands::config_show(&registry, profile, &layers)

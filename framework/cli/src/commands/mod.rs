@@ -8,6 +8,7 @@ pub mod robot;
 pub mod sim_bag;
 pub mod table;
 pub mod tools;
+pub mod viewers;
 
 use std::path::{Path, PathBuf};
 
@@ -45,10 +46,15 @@ pub(crate) fn load(sources: &ConfigSources, registry: &Registry) -> Result<Resol
 }
 
 /// `skid run [PROFILE]`.
-pub fn run(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> Result<()> {
+pub fn run(
+    registry: &Registry,
+    profile: Option<String>,
+    layers: &LayerArgs,
+    viewers: &viewers::Viewers,
+) -> Result<()> {
     let config = load(&sources(profile, layers), registry)?;
     if config.deploy.robot.is_some() {
-        return robot::run_robot(registry, config);
+        return robot::run_robot(registry, config, viewers);
     }
     tracing::info!(
         run = %config.run.name,
@@ -59,7 +65,7 @@ pub fn run(registry: &Registry, profile: Option<String>, layers: &LayerArgs) -> 
     );
     let total_scans = config.run.max_scans * u64::from(config.run.robots);
     let mut fleet = skid_runtime::Fleet::build(config, registry)?;
-    let _live = live_ros2(&mut fleet)?;
+    let _viewers = viewers.attach(&mut fleet)?;
     tracing::info!(robots = fleet.robots.len(), "plugins built; running");
     let bar = progress_bar(total_scans);
     let mut progress = ProgressLog::new(total_scans);
@@ -290,21 +296,4 @@ pub fn config_check(
     load(&sources, registry)?;
     println!("{}: ok", file.display());
     Ok(())
-}
-
-/// With `output.ros2`, publishes every robot of `fleet` live as ROS 2 topics over zenoh; the session
-/// lives as long as the returned value.
-pub(crate) fn live_ros2(fleet: &mut skid_runtime::Fleet) -> Result<Option<skid_ros2_live::SharedSession>> {
-    let output = &fleet.config.output;
-    if !output.ros2 {
-        return Ok(None);
-    }
-    let settings = skid_ros2_live::LiveSettings {
-        connect: output.ros2_connect.clone(),
-        listen: output.ros2_listen.clone(),
-        domain_id: output.ros2_domain_id,
-        map_every: output.ros2_map_every,
-        voxel_m: output.ros2_voxel_m,
-    };
-    Ok(Some(skid_ros2_live::attach(fleet, &settings)?))
 }

@@ -8,7 +8,11 @@ use skid_config::ResolvedConfig;
 use skid_core::{Registry, Slot};
 
 /// Builds and runs robot `deploy.robot`, writes its outputs and prints its summary as JSON.
-pub fn run_robot(registry: &Registry, config: ResolvedConfig) -> Result<()> {
+pub fn run_robot(
+    registry: &Registry,
+    config: ResolvedConfig,
+    viewers: &super::viewers::Viewers,
+) -> Result<()> {
     tracing::info!(
         run = %config.run.name,
         robot = ?config.deploy.robot,
@@ -18,7 +22,7 @@ pub fn run_robot(registry: &Registry, config: ResolvedConfig) -> Result<()> {
         "starting one robot of the fleet"
     );
     let mut robot = skid_runtime::SingleRobot::build(config, registry)?;
-    let _live = super::live_ros2(robot.fleet_mut())?;
+    let _viewers = viewers.attach(robot.fleet_mut())?;
     let mut last_report = std::time::Instant::now();
     let outcome = robot.run(|scans| {
         // Several robots may share a terminal: a log line every few seconds rather than a bar.
