@@ -4,6 +4,7 @@
 //!   (what `.ci/run` calls), with `SKID_PYTHON` pointing at a venv of the pinned Python packages the tests
 //!   use as independent writers and readers;
 //! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code);
+//! - `c-header [--check]`: the plugins' C header, generated from skid-abi with cbindgen (CI checks it);
 //! - `bench <profile>`: runs a benchmark profile in release mode, writing `target/bench/<profile>/`
 //!   (with `--config configs/bench/<profile>.toml` when that file exists);
 //! - `bench-compare A B`: per-row numeric differences of two result folders' `results.json`;
@@ -39,6 +40,12 @@ enum Task {
     BenchCompare { a: String, b: String },
     /// Regenerate the "Results" section of README.md from `target/bench/*/results.md`.
     BenchReadme,
+    /// Generate the C header for out-of-tree plugins (`framework/abi/include/skid_plugin.h`).
+    CHeader {
+        /// Only check that the checked-in header is current.
+        #[arg(long)]
+        check: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -49,6 +56,7 @@ fn main() -> ExitCode {
         Task::BenchCompare { a, b } => {
             xtask::results::compare(&xtask::workspace_root(), &a, &b).map(|text| print!("{text}"))
         }
+        Task::CHeader { check } => xtask::header::run(&xtask::workspace_root(), check),
         Task::BenchReadme => {
             let names: Vec<&str> = xtask::bench::PROFILES.iter().map(|p| p.name).collect();
             xtask::results::readme(&xtask::workspace_root(), &names).map(|text| println!("{text}"))
@@ -85,6 +93,7 @@ fn ci() -> Result<()> {
     fmt.args(["fmt", "--all", "--", "--check"]);
     run(fmt)?;
     tidy()?;
+    xtask::header::run(&xtask::workspace_root(), true)?;
     // Library and binary code: every warning denied, `unwrap` included.
     let mut clippy = cargo();
     clippy.args([

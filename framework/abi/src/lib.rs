@@ -1,14 +1,16 @@
 //! SKiD's versioned C ABI for out-of-tree plugins built as `cdylib`s.
 //!
-//! Rust trait objects cannot cross a dynamic-library boundary soundly, so a plugin exports one
-//! `extern "C"` symbol, [`ENTRY_SYMBOL`], returning a pointer to a static [`ffi::PluginDecl`]: ABI version,
-//! wire-type layout fingerprint and framework version first, then the slot kind, name, summary, default
-//! TOML config, a logger installer and the slot's function table. Only `#[repr(C)]` data and
+//! Rust trait objects cannot cross a dynamic-library boundary soundly, so a plugin library exports one
+//! `extern "C"` symbol, [`ENTRY_SYMBOL`], returning a pointer to a static [`ffi::LibraryDecl`]: ABI
+//! version, wire-type layout fingerprint and framework version first, then the library's name, a logger
+//! installer and its plugins, each a [`ffi::PluginDecl`] with slot kind, name, summary, default TOML
+//! config and the slot's function table. The descriptor, coarse and fine registration slots cross; the
+//! C header `include/skid_plugin.h` declares the same types for plugins written in C or C++. Only `#[repr(C)]` data and
 //! `extern "C"` function pointers cross; every exported function catches panics; config crosses as
 //! UTF-8 TOML that the plugin parses itself; outputs and error messages go into host-allocated buffers.
 //!
-//! - Plugin side (always compiled, light): implement [`DescriptorPlugin`] in safe Rust and call
-//!   [`export_descriptor!`]. Use [`parse_config`] for `deny_unknown_fields` configs with key paths.
+//! - Plugin side (always compiled, light): implement [`DescriptorPlugin`], [`CoarsePlugin`] or
+//!   [`FinePlugin`] in safe Rust and call [`export_plugins!`] (or [`export_descriptor!`] for one descriptor). Use [`parse_config`] for `deny_unknown_fields` configs with key paths.
 //! - Host side (feature `host`): [`load_library`] opens, checks and wraps a library into a
 //!   [`LoadedPlugin`], which registers itself into a `skid_core::Registry`.
 
@@ -21,14 +23,20 @@ pub mod plugin;
 
 #[cfg(feature = "host")]
 pub mod host;
+#[cfg(feature = "nalgebra")]
+pub mod transform;
 
-pub use plugin::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
+pub use ffi::AbiTransform;
+pub use plugin::{
+    CoarseOutcome, CoarsePlugin, ConfigError, DescriptorPlugin, FineOutcome, FinePlugin, InstanceContext,
+    parse_config,
+};
 
 #[cfg(feature = "host")]
-pub use host::{AbiError, LoadedPlugin, load_into, load_library};
+pub use host::{AbiError, LoadedLibrary, LoadedPlugin, load_into, load_library};
 
 /// Version of the C ABI. Bump it on any change to the declaration or a function table.
-pub const ABI_VERSION: u32 = 1;
+pub const ABI_VERSION: u32 = 2;
 
 /// The version of this crate, which a plugin and the host must agree on (same major, and same minor
 /// while the major is 0).
@@ -38,7 +46,7 @@ pub const FRAMEWORK_VERSION: &str = env!("CARGO_PKG_VERSION");
 pub const ENTRY_SYMBOL: &str = "skid_plugin_entry";
 
 /// The signature of the entry symbol.
-pub type EntryFn = extern "C" fn() -> *const ffi::PluginDecl;
+pub type EntryFn = extern "C" fn() -> *const ffi::LibraryDecl;
 
 /// True when a plugin built against framework version `plugin` can be loaded by a host of version
 /// `host`: same major version and, while the major version is 0, the same minor version.

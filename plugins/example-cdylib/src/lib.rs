@@ -6,8 +6,13 @@
 //! change when the sensor turns about its vertical axis, so the descriptor is invariant to yaw; it
 //! keeps no angular information at all, which makes it cheap and coarse.
 //!
-//! The crate contains no `unsafe` code: it implements [`skid_abi::DescriptorPlugin`] and lets
-//! [`skid_abi::export_descriptor!`] generate the C side.
+//! It also provides `gicp_cdylib` (module [`gicp`]), the built-in GICP fine registration behind the C
+//! ABI, so that one library shows both kinds of Rust plugin and the boundary's cost can be measured.
+//!
+//! The crate contains no `unsafe` code: it implements [`skid_abi::DescriptorPlugin`] and
+//! [`skid_abi::FinePlugin`] and lets [`skid_abi::export_plugins!`] generate the C side.
+
+pub mod gicp;
 
 use serde::Deserialize;
 use skid_abi::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
@@ -162,7 +167,7 @@ impl DescriptorPlugin for RingHistogram {
     }
 }
 
-skid_abi::export_descriptor!(RingHistogram);
+skid_abi::export_plugins!(descriptor: RingHistogram, fine: gicp::GicpCdylib);
 
 #[cfg(test)]
 mod tests {

@@ -1,8 +1,13 @@
-//! One call into a plugin: the host-owned error buffers and the mapping of a status to an error.
+//! One call into a plugin: the host-owned error buffers, the mapping of a status to an error, and the
+//! `create` and `destroy` calls every slot shares.
 
-use skid_core::{ParamError, PluginError};
+use std::ffi::c_void;
+use std::ptr::NonNull;
 
-use crate::ffi::{ErrorBuf, Status};
+use skid_core::{ParamError, Params, PluginContext, PluginError};
+
+use super::library::PluginSpec;
+use crate::ffi::{AbiStr, Checked, CreateFn, DestroyFn, ErrorBuf, Handle, HostContext, Status};
 
 /// Room for an error message; longer messages are cut by the plugin.
 const MESSAGE_CAPACITY: usize = 4096;
@@ -101,4 +106,70 @@ impl ErrorSlot {
             message: text(&self.message, self.raw.message_len),
         })
     }
+}
+
+/// Calls a plugin's `create` with `params` as TOML and `context`.
+pub(crate) fn create_instance(
+    plugin: &PluginSpec,
+    create: Checked<CreateFn>,
+    params: &Params,
+    context: &PluginContext,
+) -> Result<NonNull<c_void>, CallError> {
+    let config = params.to_toml_string();
+    let output_dir = context
+        .output_dir
+        .as_ref()
+        .and_then(|dir| dir.to_str())
+        .unwrap_or("");
+    let host_context = HostContext {
+        robot: context.robot.0,
+        fleet_size: context.fleet_size,
+        threads: u32::try_from(context.threads.max(1)).unwrap_or(u32::MAX),
+        reserved: 0,
+        seed: context.seed,
+        output_dir: AbiStr::borrowed(output_dir),
+    };
+    let mut handle: Handle = std::ptr::null_mut();
+    let mut error = ErrorSlot::new();
+    // SAFETY: every pointer is to host data valid for the whole call; `create` is a checked, non-null
+    // function of a library that stays loaded.
+    let status = unsafe {
+        create(
+            AbiStr::borrowed(&config),
+            &host_context,
+            &mut handle,
+            error.as_mut_ptr(),
+        )
+    };
+    error.result(status)?;
+    NonNull::new(handle).ok_or_else(|| CallError {
+        status: Status::FAILED,
+        key: String::new(),
+        message: format!(
+            "`{}`: create reported success but returned a null handle",
+            plugin.name
+        ),
+    })
+}
+
+/// Calls a plugin's `destroy`; a failure there can only be logged.
+pub(crate) fn destroy_instance(plugin: &PluginSpec, destroy: Checked<DestroyFn>, handle: NonNull<c_void>) {
+    let mut error = ErrorSlot::new();
+    // SAFETY: the handle came from this plugin's `create` and is destroyed exactly once.
+    let status = unsafe { destroy(handle.as_ptr(), error.as_mut_ptr()) };
+    if let Err(error) = error.result(status) {
+        tracing::warn!(target: "skid::plugin", plugin = %plugin.name, "destroying an instance failed: {}", error.message);
+    }
+}
+
+/// Checks parameters by creating an instance (with a default context) and destroying it again.
+pub(crate) fn validate_params(
+    plugin: &PluginSpec,
+    create: Checked<CreateFn>,
+    destroy: Checked<DestroyFn>,
+    params: &Params,
+) -> Result<(), ParamError> {
+    create_instance(plugin, create, params, &PluginContext::default())
+        .map(|handle| destroy_instance(plugin, destroy, handle))
+        .map_err(|error| error.into_param_error(&plugin.name))
 }

@@ -4,83 +4,26 @@ use std::ffi::c_void;
 use std::ptr::NonNull;
 
 use skid_core::slots::{Descriptor, DescriptorBuf, DescriptorIndex};
-use skid_core::{CloudView, ParamError, Params, PluginContext, PluginEntry, PluginError, PluginResult};
+use skid_core::{CloudView, Params, PluginContext, PluginEntry, PluginError, PluginResult};
 
-use super::call::{CallError, ErrorSlot};
+use super::call::{CallError, ErrorSlot, create_instance, destroy_instance, validate_params};
 use super::index::ExactL2Index;
-use super::library::Library;
-use crate::ffi::{AbiStr, Handle, HostContext, Status};
+use super::library::{DescriptorFns, PluginSpec};
+use crate::ffi::Status;
 
-/// The registry entry of a loaded descriptor library.
-pub(super) fn entry(library: &'static Library) -> PluginEntry<dyn Descriptor> {
+/// The registry entry of a loaded descriptor plugin.
+pub(super) fn entry(plugin: &'static PluginSpec, fns: DescriptorFns) -> PluginEntry<dyn Descriptor> {
     PluginEntry::from_parts(
-        &library.name,
-        &library.summary,
-        &library.path.display().to_string(),
-        library.defaults.clone(),
-        move |params: &Params| validate(library, params),
+        &plugin.name,
+        &plugin.summary,
+        &plugin.path.display().to_string(),
+        plugin.defaults.clone(),
+        move |params: &Params| validate_params(plugin, fns.create, fns.destroy, params),
         move |params: &Params, context: &PluginContext| {
-            DynDescriptor::create(library, params, context)
+            DynDescriptor::create(plugin, fns, params, context)
                 .map(|descriptor| Box::new(descriptor) as Box<dyn Descriptor>)
         },
     )
-}
-
-/// Checks parameters by creating an instance (with a default context) and destroying it.
-pub(super) fn validate(library: &'static Library, params: &Params) -> Result<(), ParamError> {
-    create_handle(library, params, &PluginContext::default())
-        .map(|handle| destroy_handle(library, handle))
-        .map_err(|error| error.into_param_error(&library.name))
-}
-
-/// Calls the plugin's `create`.
-fn create_handle(
-    library: &'static Library,
-    params: &Params,
-    context: &PluginContext,
-) -> Result<NonNull<c_void>, CallError> {
-    let config = params.to_toml_string();
-    let output_dir = context
-        .output_dir
-        .as_ref()
-        .and_then(|dir| dir.to_str())
-        .unwrap_or("");
-    let host_context = HostContext {
-        robot: context.robot.0,
-        fleet_size: context.fleet_size,
-        threads: u32::try_from(context.threads.max(1)).unwrap_or(u32::MAX),
-        reserved: 0,
-        seed: context.seed,
-        output_dir: AbiStr::borrowed(output_dir),
-    };
-    let mut handle: Handle = std::ptr::null_mut();
-    let mut error = ErrorSlot::new();
-    // SAFETY: every pointer is to host data valid for the whole call; `create` is a checked, non-null
-    // function of a library that stays loaded.
-    let status = unsafe {
-        (library.descriptor.create)(
-            AbiStr::borrowed(&config),
-            &host_context,
-            &mut handle,
-            error.as_mut_ptr(),
-        )
-    };
-    error.result(status)?;
-    NonNull::new(handle).ok_or(CallError {
-        status: Status::FAILED,
-        key: String::new(),
-        message: "create reported success but returned a null handle".to_owned(),
-    })
-}
-
-/// Calls the plugin's `destroy`; a failure there can only be logged.
-fn destroy_handle(library: &'static Library, handle: NonNull<c_void>) {
-    let mut error = ErrorSlot::new();
-    // SAFETY: the handle came from this library's `create` and is destroyed exactly once.
-    let status = unsafe { (library.descriptor.destroy)(handle.as_ptr(), error.as_mut_ptr()) };
-    if let Err(error) = error.result(status) {
-        tracing::warn!(target: "skid::plugin", plugin = %library.name, "destroying an instance failed: {}", error.message);
-    }
 }
 
 /// An instance of a dynamically loaded descriptor plugin.
@@ -89,7 +32,8 @@ fn destroy_handle(library: &'static Library, handle: NonNull<c_void>) {
 /// create a fresh one.
 pub struct DynDescriptor {
     handle: NonNull<c_void>,
-    library: &'static Library,
+    library: &'static PluginSpec,
+    fns: DescriptorFns,
     poisoned: bool,
 }
 
@@ -109,15 +53,17 @@ impl std::fmt::Debug for DynDescriptor {
 impl DynDescriptor {
     /// Creates an instance from parameters.
     pub(super) fn create(
-        library: &'static Library,
+        library: &'static PluginSpec,
+        fns: DescriptorFns,
         params: &Params,
         context: &PluginContext,
     ) -> PluginResult<Self> {
-        let handle = create_handle(library, params, context)
+        let handle = create_instance(library, fns.create, params, context)
             .map_err(|error| error.into_plugin_error(&library.name))?;
         Ok(Self {
             handle,
             library,
+            fns,
             poisoned: false,
         })
     }
@@ -128,9 +74,7 @@ impl DynDescriptor {
         let mut len = 0_usize;
         let mut error = ErrorSlot::new();
         // SAFETY: a live handle of this library and host-owned outputs valid for the call.
-        let status = unsafe {
-            (self.library.descriptor.descriptor_len)(self.handle.as_ptr(), &mut len, error.as_mut_ptr())
-        };
+        let status = unsafe { (self.fns.descriptor_len)(self.handle.as_ptr(), &mut len, error.as_mut_ptr()) };
         self.finish(error.result(status)).map(|()| len)
     }
 
@@ -168,7 +112,7 @@ impl DynDescriptor {
         // SAFETY: a live handle of this library; `points` and `values` are host buffers valid for the
         // call and `values` is writable for its length.
         let status = unsafe {
-            (self.library.descriptor.describe)(
+            (self.fns.describe)(
                 self.handle.as_ptr(),
                 points.as_ptr(),
                 points.len(),
@@ -229,6 +173,6 @@ impl Descriptor for DynDescriptor {
 
 impl Drop for DynDescriptor {
     fn drop(&mut self) {
-        destroy_handle(self.library, self.handle);
+        destroy_instance(self.library, self.fns.destroy, self.handle);
     }
 }

@@ -1,7 +1,9 @@
 //! Opening a plugin library, checking its declaration in a fixed order, and keeping it for the process.
 //!
 //! The order matters: the ABI version (offset 0) is read first and alone, then the layout fingerprint
-//! and the framework version; only a declaration that passed all three is read as a [`PluginDecl`].
+//! and the framework version; only a declaration that passed all three is read as a [`LibraryDecl`],
+//! and then each of its plugins: name, texts, default config, and a function table of the declared slot
+//! with every entry non-null.
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -10,22 +12,25 @@ use skid_core::{Params, Slot};
 
 use super::{AbiError, logging};
 use crate::ffi::{
-    CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable, DestroyFn, PluginDecl, SlotKind, Status,
+    AbiStr, AlignFn, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable,
+    DestroyFn, DestroyPreparedFn, FineVTable, LibraryDecl, PluginDecl, PrepareFn, PreparedPointsFn, RefineFn,
+    SlotKind, Status,
 };
 use crate::{ABI_VERSION, ENTRY_SYMBOL, FRAMEWORK_VERSION};
 
 /// The entry symbol's type as the host calls it: foreign code, hence `unsafe`.
-type RawEntryFn = unsafe extern "C" fn() -> *const PluginDecl;
+type RawEntryFn = unsafe extern "C" fn() -> *const LibraryDecl;
+
+/// The most plugins one library may declare; a larger count is taken for a corrupt declaration.
+const MAX_PLUGINS_PER_LIBRARY: usize = 1024;
 
 /// A loaded, checked plugin library. Never dropped: it is leaked when loaded.
 pub(crate) struct Library {
     pub(crate) path: PathBuf,
+    /// The library's own name (its crate or project).
     pub(crate) name: String,
-    pub(crate) summary: String,
     pub(crate) framework_version: String,
-    pub(crate) slot: Slot,
-    pub(crate) defaults: Params,
-    pub(crate) descriptor: DescriptorFns,
+    pub(crate) plugins: Vec<PluginSpec>,
     /// Keeps the code mapped; the last field, and never dropped anyway.
     _library: libloading::Library,
 }
@@ -35,17 +40,67 @@ impl std::fmt::Debug for Library {
         f.debug_struct("Library")
             .field("path", &self.path)
             .field("name", &self.name)
+            .field("plugins", &self.plugins.len())
             .finish_non_exhaustive()
     }
 }
 
-/// The descriptor function table, every pointer checked non-null.
-#[derive(Clone, Copy)]
+/// One checked plugin of a library.
+#[derive(Debug)]
+pub(crate) struct PluginSpec {
+    pub(crate) name: String,
+    pub(crate) summary: String,
+    pub(crate) defaults: Params,
+    /// The library file, for errors and `skid plugins`.
+    pub(crate) path: PathBuf,
+    pub(crate) table: SlotTable,
+}
+
+impl PluginSpec {
+    /// The slot the plugin fills.
+    pub(crate) fn slot(&self) -> Slot {
+        match self.table {
+            SlotTable::Descriptor(_) => Slot::Descriptor,
+            SlotTable::Coarse(_) => Slot::Coarse,
+            SlotTable::Fine(_) => Slot::Fine,
+        }
+    }
+}
+
+/// A plugin's function table, every pointer checked non-null.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum SlotTable {
+    Descriptor(DescriptorFns),
+    Coarse(CoarseFns),
+    Fine(FineFns),
+}
+
+/// The descriptor function table.
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct DescriptorFns {
-    pub(crate) create: CreateFn,
-    pub(crate) descriptor_len: DescriptorLenFn,
-    pub(crate) describe: DescribeFn,
-    pub(crate) destroy: DestroyFn,
+    pub(crate) create: Checked<CreateFn>,
+    pub(crate) descriptor_len: Checked<DescriptorLenFn>,
+    pub(crate) describe: Checked<DescribeFn>,
+    pub(crate) destroy: Checked<DestroyFn>,
+}
+
+/// The coarse registration function table.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CoarseFns {
+    pub(crate) create: Checked<CreateFn>,
+    pub(crate) align: Checked<AlignFn>,
+    pub(crate) destroy: Checked<DestroyFn>,
+}
+
+/// The fine registration function table.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FineFns {
+    pub(crate) create: Checked<CreateFn>,
+    pub(crate) prepare: Checked<PrepareFn>,
+    pub(crate) prepared_points: Checked<PreparedPointsFn>,
+    pub(crate) refine: Checked<RefineFn>,
+    pub(crate) destroy_prepared: Checked<DestroyPreparedFn>,
+    pub(crate) destroy: Checked<DestroyFn>,
 }
 
 /// Every library loaded so far, by canonical path.
@@ -67,23 +122,12 @@ pub(super) fn load(path: &Path) -> Result<&'static Library, AbiError> {
         source,
     })?;
     match check(&path, &library) {
-        Ok(checked) => {
-            let Checked {
-                name,
-                summary,
-                framework_version,
-                slot,
-                defaults,
-                descriptor,
-            } = checked;
+        Ok((name, framework_version, plugins)) => {
             let library = Library {
                 path,
                 name,
-                summary,
                 framework_version,
-                slot,
-                defaults,
-                descriptor,
+                plugins,
                 _library: library,
             };
             let library: &'static Library = Box::leak(Box::new(library));
@@ -98,21 +142,11 @@ pub(super) fn load(path: &Path) -> Result<&'static Library, AbiError> {
     }
 }
 
-/// The fields of a [`Library`] other than the handle itself, read from a checked declaration.
-struct Checked {
-    name: String,
-    summary: String,
-    framework_version: String,
-    slot: Slot,
-    defaults: Params,
-    descriptor: DescriptorFns,
-}
-
 /// Finds the entry symbol and checks the declaration; installs the logger once it is accepted.
-fn check(path: &Path, library: &libloading::Library) -> Result<Checked, AbiError> {
-    let malformed = |reason: &str| AbiError::Malformed {
+fn check(path: &Path, library: &libloading::Library) -> Result<(String, String, Vec<PluginSpec>), AbiError> {
+    let malformed = |reason: String| AbiError::Malformed {
         path: path.to_owned(),
-        reason: reason.to_owned(),
+        reason,
     };
     // SAFETY: the symbol's type is the ABI's entry signature; a library that exports the name with
     // another type is not a SKiD plugin, and the version check below is the best defence against it.
@@ -125,7 +159,9 @@ fn check(path: &Path, library: &libloading::Library) -> Result<Checked, AbiError
     // SAFETY: the entry function takes no arguments and returns a pointer to static data.
     let decl = unsafe { entry() };
     if decl.is_null() {
-        return Err(malformed("the entry symbol returned a null declaration"));
+        return Err(malformed(
+            "the entry symbol returned a null declaration".to_owned(),
+        ));
     }
     // SAFETY: every ABI version starts its declaration with the version as a `u32` at offset 0.
     let abi_version = unsafe { (&raw const (*decl).abi_version).read() };
@@ -145,12 +181,8 @@ fn check(path: &Path, library: &libloading::Library) -> Result<Checked, AbiError
             host: skid_msgs::LAYOUT_FINGERPRINT,
         });
     }
-    // SAFETY: declaration strings point into the library's static data, mapped for the process.
-    let text = |field: &str, value: crate::ffi::AbiStr| match unsafe { value.to_str() } {
-        Some(text) => Ok(text.to_owned()),
-        None => Err(malformed(&format!("the {field} is null or not UTF-8"))),
-    };
-    let framework_version = text("framework version", decl.framework_version)?;
+    let framework_version =
+        text(decl.framework_version).ok_or_else(|| malformed(bad_text("framework version")))?;
     if !crate::framework_versions_compatible(&framework_version, FRAMEWORK_VERSION) {
         return Err(AbiError::FrameworkVersion {
             path: path.to_owned(),
@@ -158,55 +190,152 @@ fn check(path: &Path, library: &libloading::Library) -> Result<Checked, AbiError
             host: FRAMEWORK_VERSION.to_owned(),
         });
     }
-    let name = text("name", decl.name)?;
+    let library_name = text(decl.name).ok_or_else(|| malformed(bad_text("library name")))?;
+    if decl.plugin_count == 0 || decl.plugin_count > MAX_PLUGINS_PER_LIBRARY || decl.plugins.is_null() {
+        return Err(malformed(format!(
+            "the library declares {} plugins at {:p} (expected 1 to {MAX_PLUGINS_PER_LIBRARY} at a non-null address)",
+            decl.plugin_count, decl.plugins
+        )));
+    }
+    // SAFETY: a non-null array of `plugin_count` declarations in the library's static data.
+    let decls = unsafe { std::slice::from_raw_parts(decl.plugins, decl.plugin_count) };
+    let mut plugins: Vec<PluginSpec> = Vec::with_capacity(decls.len());
+    for (index, plugin) in decls.iter().enumerate() {
+        let spec = check_plugin(path, plugin).map_err(|refusal| match refusal {
+            Refusal::Malformed(reason) => malformed(format!("plugin {index}: {reason}")),
+            Refusal::UnsupportedSlot { name, kind } => AbiError::UnsupportedSlot {
+                path: path.to_owned(),
+                name,
+                kind,
+            },
+        })?;
+        if plugins.iter().any(|other| other.name == spec.name) {
+            return Err(malformed(format!("two plugins are named `{}`", spec.name)));
+        }
+        plugins.push(spec);
+    }
+    match decl.set_logger {
+        Some(set_logger) => {
+            // SAFETY: both callbacks are host functions valid for the whole process, and never unwind.
+            let status = unsafe { set_logger(Some(logging::host_log), Some(logging::host_enabled)) };
+            if status != Status::OK {
+                tracing::warn!(target: "skid::plugin", library = %library_name, "set_logger returned status {}; its logs are lost", status.0);
+            }
+        }
+        None => {
+            tracing::debug!(target: "skid::plugin", library = %library_name, "the library installs no logger")
+        }
+    }
+    tracing::debug!(target: "skid::plugin", library = %library_name, path = %path.display(), plugins = plugins.len(), "loaded plugin library");
+    Ok((library_name, framework_version, plugins))
+}
+
+/// A declaration string as owned text; `None` when null or not UTF-8.
+fn text(value: AbiStr) -> Option<String> {
+    // SAFETY: declaration strings point into the library's static data, mapped for the process.
+    unsafe { value.to_str() }.map(str::to_owned)
+}
+
+fn bad_text(field: &str) -> String {
+    format!("the {field} is null or not UTF-8")
+}
+
+/// Why one plugin declaration was refused.
+enum Refusal {
+    Malformed(String),
+    UnsupportedSlot { name: String, kind: u32 },
+}
+
+impl From<String> for Refusal {
+    fn from(reason: String) -> Self {
+        Refusal::Malformed(reason)
+    }
+}
+
+/// Checks one plugin declaration.
+fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
+    let name = text(decl.name).ok_or_else(|| bad_text("name"))?;
     if name.is_empty()
         || !name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
     {
-        return Err(malformed(&format!(
-            "the name `{name}` is not a non-empty [A-Za-z0-9_-]+ identifier"
-        )));
+        return Err(format!("the name `{name}` is not a non-empty [A-Za-z0-9_-]+ identifier").into());
     }
-    if decl.slot_kind != SlotKind::DESCRIPTOR {
-        return Err(AbiError::UnsupportedSlot {
-            path: path.to_owned(),
-            name,
-            kind: decl.slot_kind.0,
-        });
-    }
-    let summary = text("summary", decl.summary)?;
-    let default_config = text("default config", decl.default_config)?;
+    let summary = text(decl.summary).ok_or_else(|| bad_text("summary"))?;
+    let default_config = text(decl.default_config).ok_or_else(|| bad_text("default config"))?;
     let defaults = Params::from_toml_str(&default_config)
-        .map_err(|error| malformed(&format!("the default config is not TOML: {error}")))?;
-    let table = decl.slot_table.cast::<DescriptorVTable>();
-    // SAFETY: for the descriptor kind the slot table is a static `DescriptorVTable` (null is checked).
-    let Some(table) = (unsafe { table.as_ref() }) else {
-        return Err(malformed("the descriptor function table is null"));
+        .map_err(|error| format!("`{name}`: the default config is not TOML: {error}"))?;
+    let null_entry = |slot: &str| format!("`{name}`: the {slot} function table has a null entry");
+    let table = match decl.slot_kind {
+        SlotKind::DESCRIPTOR => {
+            // SAFETY: for this kind the table is a static `DescriptorVTable` (null is checked).
+            let table = unsafe { decl.slot_table.cast::<DescriptorVTable>().as_ref() }
+                .ok_or_else(|| format!("`{name}`: the descriptor function table is null"))?;
+            let (Some(create), Some(descriptor_len), Some(describe), Some(destroy)) =
+                (table.create, table.descriptor_len, table.describe, table.destroy)
+            else {
+                return Err(null_entry("descriptor").into());
+            };
+            SlotTable::Descriptor(DescriptorFns {
+                create,
+                descriptor_len,
+                describe,
+                destroy,
+            })
+        }
+        SlotKind::COARSE => {
+            // SAFETY: for this kind the table is a static `CoarseVTable` (null is checked).
+            let table = unsafe { decl.slot_table.cast::<CoarseVTable>().as_ref() }
+                .ok_or_else(|| format!("`{name}`: the coarse function table is null"))?;
+            let (Some(create), Some(align), Some(destroy)) = (table.create, table.align, table.destroy)
+            else {
+                return Err(null_entry("coarse").into());
+            };
+            SlotTable::Coarse(CoarseFns {
+                create,
+                align,
+                destroy,
+            })
+        }
+        SlotKind::FINE => {
+            // SAFETY: for this kind the table is a static `FineVTable` (null is checked).
+            let table = unsafe { decl.slot_table.cast::<FineVTable>().as_ref() }
+                .ok_or_else(|| format!("`{name}`: the fine function table is null"))?;
+            let (
+                Some(create),
+                Some(prepare),
+                Some(prepared_points),
+                Some(refine),
+                Some(destroy_prepared),
+                Some(destroy),
+            ) = (
+                table.create,
+                table.prepare,
+                table.prepared_points,
+                table.refine,
+                table.destroy_prepared,
+                table.destroy,
+            )
+            else {
+                return Err(null_entry("fine").into());
+            };
+            SlotTable::Fine(FineFns {
+                create,
+                prepare,
+                prepared_points,
+                refine,
+                destroy_prepared,
+                destroy,
+            })
+        }
+        SlotKind(kind) => return Err(Refusal::UnsupportedSlot { name, kind }),
     };
-    let (Some(create), Some(descriptor_len), Some(describe), Some(destroy)) =
-        (table.create, table.descriptor_len, table.describe, table.destroy)
-    else {
-        return Err(malformed("the descriptor function table has a null entry"));
-    };
-    let set_logger = decl.set_logger.ok_or_else(|| malformed("set_logger is null"))?;
-    // SAFETY: both callbacks are host functions valid for the whole process, and never unwind.
-    let status = unsafe { set_logger(Some(logging::host_log), Some(logging::host_enabled)) };
-    if status != Status::OK {
-        tracing::warn!(target: "skid::plugin", plugin = %name, "set_logger returned status {}; its logs are lost", status.0);
-    }
-    tracing::debug!(target: "skid::plugin", plugin = %name, path = %path.display(), "loaded plugin library");
-    Ok(Checked {
+    Ok(PluginSpec {
         name,
         summary,
-        framework_version,
-        slot: Slot::Descriptor,
         defaults,
-        descriptor: DescriptorFns {
-            create,
-            descriptor_len,
-            describe,
-            destroy,
-        },
+        path: path.to_owned(),
+        table,
     })
 }

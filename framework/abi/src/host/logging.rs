@@ -1,7 +1,7 @@
 //! The host's logging callbacks: plugin events re-emitted as host `tracing` events.
 //!
-//! Every event arrives under the target `skid::plugin` with the plugin's name in the `plugin` field and
-//! the plugin-side target in `plugin_target`, so one filter directive (`skid::plugin=debug`) controls all
+//! Every event arrives under the target `skid::plugin` with the plugin library's name in the `library`
+//! field and the plugin-side target (the module that logged) in `plugin_target`, so one filter directive (`skid::plugin=debug`) controls all
 //! plugins. Neither callback may unwind into the plugin, so both run under `catch_unwind`.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -18,16 +18,16 @@ pub const PLUGIN_TARGET: &str = "skid::plugin";
 /// # Safety
 ///
 /// The strings must be valid for the duration of the call (the plugin guarantees it).
-pub(crate) unsafe extern "C" fn host_log(level: u32, plugin: AbiStr, target: AbiStr, message: AbiStr) {
+pub(crate) unsafe extern "C" fn host_log(level: u32, library: AbiStr, target: AbiStr, message: AbiStr) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: the plugin passes strings valid for this call; invalid UTF-8 is reported, not read.
-        let (plugin, target, message) = unsafe { (plugin.to_str(), target.to_str(), message.to_str()) };
-        let plugin = plugin.unwrap_or("<non-UTF-8 plugin name>");
+        let (library, target, message) = unsafe { (library.to_str(), target.to_str(), message.to_str()) };
+        let library = library.unwrap_or("<non-UTF-8 library name>");
         let target = target.unwrap_or("<non-UTF-8 target>");
         let message = message.unwrap_or("<non-UTF-8 message>");
         macro_rules! emit {
             ($level:expr) => {
-                tracing::event!(target: "skid::plugin", $level, plugin, plugin_target = target, "{message}")
+                tracing::event!(target: "skid::plugin", $level, library, plugin_target = target, "{message}")
             };
         }
         match level {

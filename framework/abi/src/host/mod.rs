@@ -1,5 +1,5 @@
-//! The host side (feature `host`): opens plugin libraries, checks them, and wraps their C tables back
-//! into skid-core's slot traits so they register into a [`Registry`] like built-ins.
+//! The host side (feature `host`): opens plugin libraries, checks them, and wraps their plugins' C
+//! tables back into skid-core's slot traits so they register into a [`Registry`] like built-ins.
 //!
 //! Libraries are never unloaded: each one is leaked into a process-wide list the first time it loads,
 //! and loading the same file again returns the same plugin. Instances are destroyed by their wrappers'
@@ -10,6 +10,7 @@ mod descriptor;
 mod index;
 mod library;
 mod logging;
+mod registration;
 
 use std::path::{Path, PathBuf};
 
@@ -18,8 +19,9 @@ use skid_core::{ParamError, Params, PluginError, Registry, Slot};
 pub use descriptor::DynDescriptor;
 pub use index::ExactL2Index;
 pub use logging::PLUGIN_TARGET;
+pub use registration::{DynCoarse, DynFine};
 
-use library::Library;
+use library::{Library, PluginSpec, SlotTable};
 
 /// Why a plugin library could not be loaded or registered.
 #[derive(Debug, thiserror::Error)]
@@ -63,7 +65,7 @@ pub enum AbiError {
     },
 
     /// The plugin fills a slot this host cannot load dynamically yet.
-    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: descriptor)", path.display())]
+    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: descriptor, coarse, fine)", path.display())]
     UnsupportedSlot { path: PathBuf, name: String, kind: u32 },
 
     /// The declaration is broken: a null pointer, a non-UTF-8 string, an unparsable default config.
@@ -77,85 +79,156 @@ pub enum AbiError {
 
 /// A plugin library that passed every check; cheap to copy, valid for the rest of the process.
 #[derive(Clone, Copy, Debug)]
-pub struct LoadedPlugin {
+pub struct LoadedLibrary {
     library: &'static Library,
 }
 
-/// Opens the plugin library at `path`, checks its ABI version, layout fingerprint and framework
-/// version, and installs the host's logger in it. Loading the same file again returns the same plugin.
-pub fn load_library(path: impl AsRef<Path>) -> Result<LoadedPlugin, AbiError> {
-    library::load(path.as_ref()).map(|library| LoadedPlugin { library })
+/// One plugin of a loaded library.
+#[derive(Clone, Copy, Debug)]
+pub struct LoadedPlugin {
+    plugin: &'static PluginSpec,
 }
 
-/// Loads the plugin library at `path` and registers it into `registry`.
-pub fn load_into(registry: &mut Registry, path: impl AsRef<Path>) -> Result<LoadedPlugin, AbiError> {
-    let plugin = load_library(path)?;
-    plugin.register(registry)?;
-    Ok(plugin)
+/// Opens the plugin library at `path`, checks its ABI version, layout fingerprint, framework version and
+/// every plugin's declaration, and installs the host's logger in it. Loading the same file again returns
+/// the same library.
+pub fn load_library(path: impl AsRef<Path>) -> Result<LoadedLibrary, AbiError> {
+    library::load(path.as_ref()).map(|library| LoadedLibrary { library })
+}
+
+/// Loads the plugin library at `path` and registers all its plugins into `registry`.
+pub fn load_into(registry: &mut Registry, path: impl AsRef<Path>) -> Result<LoadedLibrary, AbiError> {
+    let library = load_library(path)?;
+    library.register(registry)?;
+    Ok(library)
+}
+
+impl LoadedLibrary {
+    /// The library's own name (its crate or project).
+    pub fn name(&self) -> &'static str {
+        &self.library.name
+    }
+
+    /// The file the library was loaded from (canonical).
+    pub fn path(&self) -> &'static Path {
+        &self.library.path
+    }
+
+    /// The framework version the library was built against.
+    pub fn framework_version(&self) -> &'static str {
+        &self.library.framework_version
+    }
+
+    /// The plugins the library provides, in declaration order.
+    pub fn plugins(&self) -> Vec<LoadedPlugin> {
+        self.library
+            .plugins
+            .iter()
+            .map(|plugin| LoadedPlugin { plugin })
+            .collect()
+    }
+
+    /// The plugin called `name`, if the library has one.
+    pub fn plugin(&self, name: &str) -> Option<LoadedPlugin> {
+        self.library
+            .plugins
+            .iter()
+            .find(|plugin| plugin.name == name)
+            .map(|plugin| LoadedPlugin { plugin })
+    }
+
+    /// Registers every plugin of the library into its slot's table of `registry`.
+    pub fn register(&self, registry: &mut Registry) -> Result<(), AbiError> {
+        self.plugins()
+            .iter()
+            .try_for_each(|plugin| plugin.register(registry))
+    }
 }
 
 impl LoadedPlugin {
     /// The registry name.
     pub fn name(&self) -> &'static str {
-        &self.library.name
+        &self.plugin.name
     }
 
     /// The one-line summary.
     pub fn summary(&self) -> &'static str {
-        &self.library.summary
+        &self.plugin.summary
     }
 
     /// The slot the plugin fills.
     pub fn slot(&self) -> Slot {
-        self.library.slot
+        self.plugin.slot()
     }
 
     /// The file the plugin was loaded from (canonical).
     pub fn path(&self) -> &'static Path {
-        &self.library.path
-    }
-
-    /// The framework version the plugin was built against.
-    pub fn framework_version(&self) -> &'static str {
-        &self.library.framework_version
+        &self.plugin.path
     }
 
     /// The default parameters, as the plugin declares them.
     pub fn default_params(&self) -> &'static Params {
-        &self.library.defaults
+        &self.plugin.defaults
     }
 
     /// Registers the plugin into its slot's table of `registry`.
     pub fn register(&self, registry: &mut Registry) -> Result<(), AbiError> {
-        let result = match self.library.slot {
-            Slot::Descriptor => registry.descriptor.register(descriptor::entry(self.library)),
-            other => unreachable_slot(other),
+        let plugin = self.plugin;
+        let result = match plugin.table {
+            SlotTable::Descriptor(fns) => registry.descriptor.register(descriptor::entry(plugin, fns)),
+            SlotTable::Coarse(fns) => registry.coarse.register(registration::coarse_entry(plugin, fns)),
+            SlotTable::Fine(fns) => registry.fine.register(registration::fine_entry(plugin, fns)),
         };
         result.map_err(|source| AbiError::Register {
-            path: self.library.path.clone(),
+            path: plugin.path.clone(),
             source,
         })
     }
 
     /// Checks parameters by building an instance and destroying it again.
     pub fn validate(&self, params: &Params) -> Result<(), ParamError> {
-        descriptor::validate(self.library, params)
+        let (create, destroy) = match self.plugin.table {
+            SlotTable::Descriptor(fns) => (fns.create, fns.destroy),
+            SlotTable::Coarse(fns) => (fns.create, fns.destroy),
+            SlotTable::Fine(fns) => (fns.create, fns.destroy),
+        };
+        call::validate_params(self.plugin, create, destroy, params)
     }
 
-    /// A descriptor instance built from `params`, for callers that do not go through a [`Registry`].
+    /// A descriptor instance built from `params`, for callers that do not go through a [`Registry`];
+    /// `None` when the plugin is not a descriptor.
     pub fn create_descriptor(
         &self,
         params: &Params,
         context: &skid_core::PluginContext,
-    ) -> Result<DynDescriptor, PluginError> {
-        DynDescriptor::create(self.library, params, context)
+    ) -> Option<Result<DynDescriptor, PluginError>> {
+        match self.plugin.table {
+            SlotTable::Descriptor(fns) => Some(DynDescriptor::create(self.plugin, fns, params, context)),
+            _ => None,
+        }
     }
-}
 
-/// Loading refuses every slot but the descriptor, so no other slot reaches registration.
-fn unreachable_slot(slot: Slot) -> Result<(), PluginError> {
-    Err(PluginError::failed(
-        "skid-abi",
-        format!("dynamic {slot} plugins are not supported"),
-    ))
+    /// A fine registration instance built from `params`; `None` when the plugin is not one.
+    pub fn create_fine(
+        &self,
+        params: &Params,
+        context: &skid_core::PluginContext,
+    ) -> Option<Result<DynFine, PluginError>> {
+        match self.plugin.table {
+            SlotTable::Fine(fns) => Some(DynFine::create(self.plugin, fns, params, context)),
+            _ => None,
+        }
+    }
+
+    /// A coarse registration instance built from `params`; `None` when the plugin is not one.
+    pub fn create_coarse(
+        &self,
+        params: &Params,
+        context: &skid_core::PluginContext,
+    ) -> Option<Result<DynCoarse, PluginError>> {
+        match self.plugin.table {
+            SlotTable::Coarse(fns) => Some(DynCoarse::create(self.plugin, fns, params, context)),
+            _ => None,
+        }
+    }
 }

@@ -1,58 +1,70 @@
-//! The `extern "C"` functions behind a plugin's function table, generic over the plugin type and
-//! instantiated in the plugin's own crate by the export macro.
+//! What every slot's `extern "C"` functions share: the call guard, error and text copying, instance
+//! creation and destruction, the logger installer and the library declaration. The functions are generic
+//! over the plugin type and instantiated in the plugin's own crate by the export macro.
 //!
-//! Each one runs the plugin's safe code under `catch_unwind`, turns any failure into a [`Status`] plus
-//! a message copied into the host's [`ErrorBuf`], and never lets a panic cross the C boundary.
+//! Each exported function runs the plugin's safe code under `catch_unwind`, turns any failure into a
+//! [`Status`] plus a message copied into the host's [`ErrorBuf`], and never lets a panic cross the C
+//! boundary.
 
 use std::any::Any;
 use std::ffi::c_void;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
-use skid_msgs::Point;
-
-use super::{ConfigError, DescriptorPlugin, InstanceContext};
+use super::{ConfigError, InstanceContext};
 use super::{logger, panic_hook};
 use crate::ffi::{
-    AbiStr, DescriptorVTable, EnabledFn, ErrorBuf, Handle, HostContext, LogFn, PluginDecl, SlotKind, Status,
+    AbiStr, EnabledFn, ErrorBuf, Handle, HostContext, LibraryDecl, LogFn, PluginDecl, SlotKind, Status,
+    TextBuf,
 };
 
 /// A failure inside an exported call, before it is flattened into a status and the error buffer.
-enum Failure {
+pub(super) enum Failure {
     Config(ConfigError),
     Failed(String),
     BufferTooSmall(String),
     InvalidArgument(String),
 }
 
-/// The declaration of a descriptor plugin, pointing at its (static) function table.
-pub const fn descriptor_decl<T: DescriptorPlugin>(vtable: &'static DescriptorVTable) -> PluginDecl {
-    PluginDecl {
+/// The name of the library, for the logger: the export macro implements it for a marker type with the
+/// plugin crate's package name.
+pub trait LibraryName {
+    const NAME: &'static str;
+}
+
+/// The declaration of a library holding `plugins`.
+pub const fn library_decl<L: LibraryName>(plugins: &'static [PluginDecl]) -> LibraryDecl {
+    LibraryDecl {
         abi_version: crate::ABI_VERSION,
         reserved: 0,
         layout_fingerprint: skid_msgs::LAYOUT_FINGERPRINT,
         framework_version: AbiStr::from_static(crate::FRAMEWORK_VERSION),
-        slot_kind: SlotKind::DESCRIPTOR,
-        reserved2: 0,
-        name: AbiStr::from_static(T::NAME),
-        summary: AbiStr::from_static(T::SUMMARY),
-        default_config: AbiStr::from_static(T::DEFAULT_CONFIG),
-        set_logger: Some(set_logger::<T>),
-        slot_table: (vtable as *const DescriptorVTable).cast::<c_void>(),
+        name: AbiStr::from_static(L::NAME),
+        set_logger: Some(set_logger::<L>),
+        plugin_count: plugins.len(),
+        plugins: plugins.as_ptr(),
     }
 }
 
-/// The descriptor function table of plugin type `T`.
-pub const fn descriptor_vtable<T: DescriptorPlugin>() -> DescriptorVTable {
-    DescriptorVTable {
-        create: Some(create::<T>),
-        descriptor_len: Some(descriptor_len::<T>),
-        describe: Some(describe::<T>),
-        destroy: Some(destroy::<T>),
+/// The declaration of one plugin whose function table of kind `slot_kind` is `table`.
+pub const fn plugin_decl<T>(
+    slot_kind: SlotKind,
+    name: &'static str,
+    summary: &'static str,
+    default_config: &'static str,
+    table: &'static T,
+) -> PluginDecl {
+    PluginDecl {
+        slot_kind,
+        reserved: 0,
+        name: AbiStr::from_static(name),
+        summary: AbiStr::from_static(summary),
+        default_config: AbiStr::from_static(default_config),
+        slot_table: (table as *const T).cast::<c_void>(),
     }
 }
 
 /// Runs `call` with panics caught, and reports its outcome through `error`.
-fn guard(error: *mut ErrorBuf, call: impl FnOnce() -> Result<(), Failure>) -> Status {
+pub(super) fn guard(error: *mut ErrorBuf, call: impl FnOnce() -> Result<(), Failure>) -> Status {
     let scope = panic_hook::enter_call();
     let (status, key, message) = match catch_unwind(AssertUnwindSafe(call)) {
         Ok(Ok(())) => return Status::OK,
@@ -132,14 +144,28 @@ unsafe fn write_error(error: *mut ErrorBuf, key: &str, message: &str) {
     }
 }
 
+/// Copies `text` into a host-owned text buffer, cut to its capacity at a character boundary.
+///
+/// # Safety
+///
+/// `buffer.ptr` must be null or writable for `buffer.capacity` bytes.
+pub(super) unsafe fn write_text(buffer: &mut TextBuf, text: &str) {
+    buffer.len = 0;
+    if buffer.ptr.is_null() {
+        return;
+    }
+    let text = truncated(text, buffer.capacity);
+    // SAFETY: `ptr` is writable for `capacity >= text.len()` bytes (the caller's guarantee) and cannot
+    // overlap `text`, which lives in this library's memory.
+    unsafe { std::ptr::copy_nonoverlapping(text.as_ptr(), buffer.ptr, text.len()) };
+    buffer.len = text.len();
+}
+
 /// Installs the host's logging callbacks (see [`logger`]).
-unsafe extern "C" fn set_logger<T: DescriptorPlugin>(
-    log: Option<LogFn>,
-    enabled: Option<EnabledFn>,
-) -> Status {
+unsafe extern "C" fn set_logger<L: LibraryName>(log: LogFn, enabled: EnabledFn) -> Status {
     guard(std::ptr::null_mut(), || match (log, enabled) {
         (Some(log), Some(enabled)) => {
-            logger::install(T::NAME, log, enabled);
+            logger::install(L::NAME, log, enabled);
             Ok(())
         }
         _ => Err(Failure::InvalidArgument(
@@ -148,11 +174,18 @@ unsafe extern "C" fn set_logger<T: DescriptorPlugin>(
     })
 }
 
-unsafe extern "C" fn create<T: DescriptorPlugin>(
+/// The body of every slot's `create`: reads the config and context, builds the instance with `build`
+/// and hands the host a boxed handle.
+///
+/// # Safety
+///
+/// The pointers must be as the host passes them to `create`: null or valid for the call.
+pub(super) unsafe fn create_with<T: Send + 'static>(
     config: AbiStr,
     context: *const HostContext,
     out_handle: *mut Handle,
     error: *mut ErrorBuf,
+    build: fn(&str, &InstanceContext) -> Result<T, ConfigError>,
 ) -> Status {
     guard(error, || {
         if out_handle.is_null() {
@@ -175,7 +208,7 @@ unsafe extern "C" fn create<T: DescriptorPlugin>(
             seed: context.seed,
             output_dir,
         };
-        let plugin = T::from_config(config, &context).map_err(Failure::Config)?;
+        let plugin = build(config, &context).map_err(Failure::Config)?;
         let handle = Box::into_raw(Box::new(plugin)).cast::<c_void>();
         // SAFETY: `out_handle` is non-null and points to a slot the host owns.
         unsafe { out_handle.write(handle) };
@@ -189,71 +222,13 @@ unsafe extern "C" fn create<T: DescriptorPlugin>(
 ///
 /// `handle` must be null or come from `create::<T>` and not have been destroyed, and no other
 /// reference to the instance may be live.
-unsafe fn instance<'a, T>(handle: Handle) -> Result<&'a mut T, Failure> {
+pub(super) unsafe fn instance<'a, T>(handle: Handle) -> Result<&'a mut T, Failure> {
     // SAFETY: guaranteed by the caller; the host serialises calls on one handle (`&mut self`).
     unsafe { handle.cast::<T>().as_mut() }.ok_or_else(|| Failure::InvalidArgument("null handle".to_owned()))
 }
 
-unsafe extern "C" fn descriptor_len<T: DescriptorPlugin>(
-    handle: Handle,
-    out_len: *mut usize,
-    error: *mut ErrorBuf,
-) -> Status {
-    guard(error, || {
-        // SAFETY: the host passes a live handle from `create` and calls it from one thread at a time.
-        let plugin = unsafe { instance::<T>(handle) }?;
-        if out_len.is_null() {
-            return Err(Failure::InvalidArgument("descriptor_len: null output".to_owned()));
-        }
-        // SAFETY: `out_len` is non-null and points to a host-owned `usize`.
-        unsafe { out_len.write(plugin.descriptor_len()) };
-        Ok(())
-    })
-}
-
-unsafe extern "C" fn describe<T: DescriptorPlugin>(
-    handle: Handle,
-    points: *const Point,
-    count: usize,
-    out: *mut f32,
-    capacity: usize,
-    out_len: *mut usize,
-    error: *mut ErrorBuf,
-) -> Status {
-    guard(error, || {
-        // SAFETY: the host passes a live handle from `create` and calls it from one thread at a time.
-        let plugin = unsafe { instance::<T>(handle) }?;
-        if out_len.is_null() || (count > 0 && points.is_null()) {
-            return Err(Failure::InvalidArgument(
-                "describe: null points or length output".to_owned(),
-            ));
-        }
-        let len = plugin.descriptor_len();
-        // SAFETY: `out_len` is non-null and points to a host-owned `usize`.
-        unsafe { out_len.write(len) };
-        if capacity < len || (len > 0 && out.is_null()) {
-            return Err(Failure::BufferTooSmall(format!(
-                "describe: {len} values needed, room for {capacity}"
-            )));
-        }
-        let points: &[Point] = if count == 0 {
-            &[]
-        } else {
-            // SAFETY: the host passes `count` initialised, aligned points that it does not mutate
-            // during this call; the layout is the same on both sides (checked by the fingerprint).
-            unsafe { std::slice::from_raw_parts(points, count) }
-        };
-        let out: &mut [f32] = if len == 0 {
-            &mut []
-        } else {
-            // SAFETY: `out` is non-null and writable for `capacity >= len` values owned by the host.
-            unsafe { std::slice::from_raw_parts_mut(out, len) }
-        };
-        plugin.describe(points, out).map_err(Failure::Failed)
-    })
-}
-
-unsafe extern "C" fn destroy<T: DescriptorPlugin>(handle: Handle, error: *mut ErrorBuf) -> Status {
+/// Drops the instance behind a handle of type `T`.
+pub(super) unsafe extern "C" fn destroy<T: Send + 'static>(handle: Handle, error: *mut ErrorBuf) -> Status {
     guard(error, || {
         if handle.is_null() {
             return Err(Failure::InvalidArgument("destroy: null handle".to_owned()));

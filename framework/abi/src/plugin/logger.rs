@@ -14,17 +14,21 @@ use tracing::span::{Attributes, Id, Record};
 use tracing::subscriber::Interest;
 use tracing::{Event, Level, Metadata, Subscriber};
 
-use crate::ffi::{AbiStr, EnabledFn, LogFn, level};
+use crate::ffi::{AbiStr, Checked, EnabledFn, LogFn, level};
 
 /// Set once the subscriber is installed; later calls (a second host load of the same library) are no-ops.
 static INSTALLED: OnceLock<()> = OnceLock::new();
 
 /// Installs the forwarding subscriber as this library's global `tracing` dispatcher, and the panic
 /// hook that reports through it, once.
-pub(super) fn install(plugin: &'static str, log: LogFn, enabled: EnabledFn) {
+pub(super) fn install(library: &'static str, log: Checked<LogFn>, enabled: Checked<EnabledFn>) {
     INSTALLED.get_or_init(|| {
         // If the plugin already installed a subscriber of its own, keep it: it was a deliberate choice.
-        let _ = tracing::subscriber::set_global_default(Forwarder { plugin, log, enabled });
+        let _ = tracing::subscriber::set_global_default(Forwarder {
+            library,
+            log,
+            enabled,
+        });
         super::panic_hook::install();
     });
 }
@@ -42,9 +46,9 @@ fn level_code(level: &Level) -> u32 {
 
 /// The subscriber that hands every enabled event to the host.
 struct Forwarder {
-    plugin: &'static str,
-    log: LogFn,
-    enabled: EnabledFn,
+    library: &'static str,
+    log: Checked<LogFn>,
+    enabled: Checked<EnabledFn>,
 }
 
 impl Subscriber for Forwarder {
@@ -87,7 +91,7 @@ impl Subscriber for Forwarder {
         unsafe {
             (self.log)(
                 level_code(metadata.level()),
-                AbiStr::from_static(self.plugin),
+                AbiStr::from_static(self.library),
                 AbiStr::borrowed(metadata.target()),
                 AbiStr::borrowed(&message),
             );

@@ -1,5 +1,6 @@
-//! The plugin side: the safe trait a plugin author implements, config parsing helpers, and the
-//! [`export_descriptor!`](crate::export_descriptor) macro that turns an implementation into the C ABI.
+//! The plugin side: the safe traits a plugin author implements (one per slot the C ABI carries), config
+//! parsing helpers, and the [`export_plugins!`](crate::export_plugins) macro that turns implementations
+//! into the C ABI.
 //!
 //! A plugin crate (`crate-type = ["cdylib"]`, depending on `skid-abi` without the `host` feature) writes:
 //!
@@ -47,16 +48,19 @@
 //!
 //! and no `unsafe` code: the macro's generated items carry their own `#[allow(unsafe_code)]`.
 
+mod descriptor;
 mod glue;
 mod logger;
 mod panic_hook;
+mod registration;
 
 use std::fmt;
 
 use serde::de::DeserializeOwned;
-use skid_msgs::Point;
 
-pub use glue::{descriptor_decl, descriptor_vtable};
+pub use descriptor::{DescriptorPlugin, descriptor_vtable};
+pub use glue::{LibraryName, library_decl, plugin_decl};
+pub use registration::{CoarseOutcome, CoarsePlugin, FineOutcome, FinePlugin, coarse_vtable, fine_vtable};
 
 /// What the host tells a new instance about where it runs (skid-core's `PluginContext`, as it crosses).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -147,49 +151,80 @@ pub fn parse_config<C: DeserializeOwned>(text: &str) -> Result<C, ConfigError> {
     })
 }
 
-/// A global place-recognition descriptor implemented in safe Rust, exported with
-/// [`export_descriptor!`](crate::export_descriptor).
-pub trait DescriptorPlugin: Sized + Send + 'static {
-    /// The registry name, e.g. `ring_histogram`.
-    const NAME: &'static str;
-    /// One line for `skid plugins`.
-    const SUMMARY: &'static str;
-    /// The default parameters as TOML text; [`from_config`](Self::from_config) must accept it.
-    const DEFAULT_CONFIG: &'static str;
-
-    /// Builds an instance from TOML config text; missing keys take their defaults, unknown keys are
-    /// an error.
-    fn from_config(config: &str, context: &InstanceContext) -> Result<Self, ConfigError>;
-
-    /// The number of values [`describe`](Self::describe) writes.
-    fn descriptor_len(&self) -> usize;
-
-    /// Describes a keyframe cloud (sensor frame) into `out`, which has exactly
-    /// [`descriptor_len`](Self::descriptor_len) values.
-    fn describe(&mut self, points: &[Point], out: &mut [f32]) -> Result<(), String>;
-}
-
-/// Exports a [`DescriptorPlugin`] implementation as this library's plugin: generates the static
-/// declaration, the descriptor function table and the `skid_plugin_entry` symbol.
-/// Use it once per library.
+/// Exports this library's plugins: one `slot: Type` pair per plugin, where the slot is `descriptor`
+/// (a [`DescriptorPlugin`]), `coarse` (a [`CoarsePlugin`]) or `fine` (a [`FinePlugin`]). Generates the
+/// function tables, the static declarations and the `skid_plugin_entry` symbol. Use it once per library:
+///
+/// ```ignore
+/// skid_abi::export_plugins!(descriptor: RingHistogram, fine: PointToPointIcp);
+/// ```
 #[macro_export]
-macro_rules! export_descriptor {
-    ($plugin:ty) => {
+macro_rules! export_plugins {
+    (@one $slot:ident) => {
+        1
+    };
+    (@decl descriptor $plugin:ty) => {{
+        static TABLE: $crate::ffi::DescriptorVTable = $crate::plugin::descriptor_vtable::<$plugin>();
+        $crate::plugin::plugin_decl(
+            $crate::ffi::SlotKind::DESCRIPTOR,
+            <$plugin as $crate::DescriptorPlugin>::NAME,
+            <$plugin as $crate::DescriptorPlugin>::SUMMARY,
+            <$plugin as $crate::DescriptorPlugin>::DEFAULT_CONFIG,
+            &TABLE,
+        )
+    }};
+    (@decl coarse $plugin:ty) => {{
+        static TABLE: $crate::ffi::CoarseVTable = $crate::plugin::coarse_vtable::<$plugin>();
+        $crate::plugin::plugin_decl(
+            $crate::ffi::SlotKind::COARSE,
+            <$plugin as $crate::CoarsePlugin>::NAME,
+            <$plugin as $crate::CoarsePlugin>::SUMMARY,
+            <$plugin as $crate::CoarsePlugin>::DEFAULT_CONFIG,
+            &TABLE,
+        )
+    }};
+    (@decl fine $plugin:ty) => {{
+        static TABLE: $crate::ffi::FineVTable = $crate::plugin::fine_vtable::<$plugin>();
+        $crate::plugin::plugin_decl(
+            $crate::ffi::SlotKind::FINE,
+            <$plugin as $crate::FinePlugin>::NAME,
+            <$plugin as $crate::FinePlugin>::SUMMARY,
+            <$plugin as $crate::FinePlugin>::DEFAULT_CONFIG,
+            &TABLE,
+        )
+    }};
+    ($($slot:ident : $plugin:ty),+ $(,)?) => {
         const _: () = {
-            static SKID_DESCRIPTOR_VTABLE: $crate::ffi::DescriptorVTable =
-                $crate::plugin::descriptor_vtable::<$plugin>();
+            /// The library's name for the host's logs: the plugin crate's package name.
+            struct SkidLibraryName;
 
-            static SKID_PLUGIN_DECL: $crate::ffi::PluginDecl =
-                $crate::plugin::descriptor_decl::<$plugin>(&SKID_DESCRIPTOR_VTABLE);
+            impl $crate::plugin::LibraryName for SkidLibraryName {
+                const NAME: &'static str = env!("CARGO_PKG_NAME");
+            }
 
-            /// The plugin's entry symbol: the host reads the declaration it points to.
+            static SKID_PLUGINS: [$crate::ffi::PluginDecl; 0 $(+ $crate::export_plugins!(@one $slot))+] =
+                [$($crate::export_plugins!(@decl $slot $plugin)),+];
+
+            static SKID_LIBRARY: $crate::ffi::LibraryDecl =
+                $crate::plugin::library_decl::<SkidLibraryName>(&SKID_PLUGINS);
+
+            /// The library's entry symbol: the host reads the declaration it points to.
             // `no_mangle` counts as unsafe code; the symbol name is the ABI's and unique per library.
             #[allow(unsafe_code)]
             #[unsafe(no_mangle)]
-            pub extern "C" fn skid_plugin_entry() -> *const $crate::ffi::PluginDecl {
-                &SKID_PLUGIN_DECL
+            pub extern "C" fn skid_plugin_entry() -> *const $crate::ffi::LibraryDecl {
+                &SKID_LIBRARY
             }
         };
+    };
+}
+
+/// Exports a library holding one [`DescriptorPlugin`]: shorthand for
+/// [`export_plugins!(descriptor: Type)`](crate::export_plugins).
+#[macro_export]
+macro_rules! export_descriptor {
+    ($plugin:ty) => {
+        $crate::export_plugins!(descriptor: $plugin);
     };
 }
 

@@ -23,9 +23,11 @@ pub fn registry(plugin_libs: &[PathBuf]) -> Result<Registry> {
     let mut registry = skid_builtin::registry().context("registering the built-in plugins")?;
     // An empty entry (`SKID_PLUGIN_LIBS=":"`, a trailing `:`) names no library.
     for path in plugin_libs.iter().filter(|path| !path.as_os_str().is_empty()) {
-        let plugin = skid_abi::load_into(&mut registry, path)
+        let library = skid_abi::load_into(&mut registry, path)
             .with_context(|| format!("loading plugin library {}", path.display()))?;
-        tracing::debug!(plugin = plugin.name(), slot = %plugin.slot(), path = %path.display(), "loaded plugin library");
+        for plugin in library.plugins() {
+            tracing::debug!(library = library.name(), plugin = plugin.name(), slot = %plugin.slot(), path = %path.display(), "loaded plugin");
+        }
     }
     Ok(registry)
 }

@@ -1,17 +1,25 @@
 //! The `#[repr(C)]` types that cross the plugin boundary, shared verbatim by the plugin and the host.
 //!
-//! The entry symbol [`ENTRY_SYMBOL`](crate::ENTRY_SYMBOL) returns a pointer to a static [`PluginDecl`].
-//! Its first three fields (ABI version at offset 0, layout fingerprint at offset 8, framework version at
+//! The entry symbol [`ENTRY_SYMBOL`](crate::ENTRY_SYMBOL) returns a pointer to a static [`LibraryDecl`],
+//! which lists the library's plugins as [`PluginDecl`]s. Its first three fields (ABI version at offset 0, layout fingerprint at offset 8, framework version at
 //! offset 16) keep their place in every ABI version, so a host can refuse a plugin from another version
 //! without reading anything else. The slot-specific function table sits behind an untyped pointer whose
 //! type [`SlotKind`] names, so new slots add a kind and a table without touching the declaration.
 //!
-//! Function pointers are `Option`s so that a null pointer from a foreign plugin is an error the host can
-//! report rather than undefined behaviour.
+//! Function-pointer types are `Option`s (nullable, as a C function pointer is) so that a null pointer from
+//! a foreign plugin is an error the host can report rather than undefined behaviour; [`Checked`] names
+//! the function type inside once the host has checked it.
+
+mod registration;
 
 use std::ffi::c_void;
 
 use skid_msgs::Point;
+
+pub use registration::{
+    AbiCloud, AbiTransform, AlignFn, CoarseResult, CoarseVTable, DestroyPreparedFn, FineResult, FineVTable,
+    PrepareFn, PreparedPointsFn, RefineFn, TextBuf,
+};
 
 /// A borrowed UTF-8 string: pointer and length in bytes, not NUL-terminated.
 #[repr(C)]
@@ -134,40 +142,58 @@ pub mod level {
     pub const TRACE: u32 = 5;
 }
 
-/// The host's logging callback: level, plugin name, the event's target, the formatted message.
+/// The host's logging callback: level, the library's name, the event's target, the formatted message.
 /// The strings are valid only during the call.
-pub type LogFn = unsafe extern "C" fn(level: u32, plugin: AbiStr, target: AbiStr, message: AbiStr);
+pub type LogFn = Option<unsafe extern "C" fn(level: u32, library: AbiStr, target: AbiStr, message: AbiStr)>;
 
 /// The host's filter: whether an event of this level and target would be recorded.
-pub type EnabledFn = unsafe extern "C" fn(level: u32, target: AbiStr) -> bool;
+pub type EnabledFn = Option<unsafe extern "C" fn(level: u32, target: AbiStr) -> bool>;
 
 /// Installs the host's logging callbacks as the plugin's `tracing` subscriber (once per library).
-pub type SetLoggerFn = unsafe extern "C" fn(log: Option<LogFn>, enabled: Option<EnabledFn>) -> Status;
+pub type SetLoggerFn = Option<unsafe extern "C" fn(log: LogFn, enabled: EnabledFn) -> Status>;
 
-/// The static declaration a plugin's entry symbol returns.
+/// The static declaration a library's entry symbol returns: the version prefix, then the plugins it holds.
 #[repr(C)]
 #[derive(Debug)]
-pub struct PluginDecl {
-    /// [`ABI_VERSION`](crate::ABI_VERSION) of the skid-abi the plugin was built with. Offset 0, forever.
+pub struct LibraryDecl {
+    /// [`ABI_VERSION`](crate::ABI_VERSION) of the skid-abi the library was built with. Offset 0, forever.
     pub abi_version: u32,
     /// Explicit padding.
     pub reserved: u32,
-    /// `skid_msgs::LAYOUT_FINGERPRINT` of the plugin's build. Offset 8, forever.
+    /// `skid_msgs::LAYOUT_FINGERPRINT` of the library's build. Offset 8, forever.
     pub layout_fingerprint: u64,
-    /// Version of the skid-abi crate the plugin was built with. Offset 16, forever.
+    /// Version of the skid-abi crate the library was built with. Offset 16, forever.
     pub framework_version: AbiStr,
+    /// The library's own name (its crate or project), for logs.
+    pub name: AbiStr,
+    /// Installs the host's logging callbacks; may be null for a library that does not log.
+    pub set_logger: SetLoggerFn,
+    /// The number of entries behind [`plugins`](Self::plugins); at least one.
+    pub plugin_count: usize,
+    /// The plugins the library provides, one declaration each.
+    pub plugins: *const PluginDecl,
+}
+
+// SAFETY: a library declaration holds only pointers to immutable `'static` data (string literals, the
+// static array of plugin declarations) and function pointers, so sharing it between threads is sound.
+unsafe impl Sync for LibraryDecl {}
+
+/// The declaration of one plugin in a library.
+#[repr(C)]
+#[derive(Debug)]
+pub struct PluginDecl {
     /// The slot the plugin fills.
     pub slot_kind: SlotKind,
     /// Explicit padding.
-    pub reserved2: u32,
+    pub reserved: u32,
     /// The registry name.
     pub name: AbiStr,
     /// One line for `skid plugins`.
     pub summary: AbiStr,
     /// The default parameters as TOML text.
     pub default_config: AbiStr,
-    pub set_logger: Option<SetLoggerFn>,
-    /// Points to the slot's function table, e.g. a [`DescriptorVTable`] when the kind is a descriptor.
+    /// Points to the slot's function table: a [`DescriptorVTable`], [`CoarseVTable`] or [`FineVTable`]
+    /// as [`slot_kind`](Self::slot_kind) says.
     pub slot_table: *const c_void,
 }
 
@@ -175,44 +201,61 @@ pub struct PluginDecl {
 // function table) and function pointers, so sharing it between threads is sound.
 unsafe impl Sync for PluginDecl {}
 
+/// The function type inside one of the nullable function-pointer aliases (`CreateFn`, …): what a
+/// table entry is once checked non-null.
+pub type Checked<F> = <F as NullableFn>::Fn;
+
+/// Names the function type inside a nullable function-pointer alias.
+pub trait NullableFn {
+    type Fn: Copy;
+}
+
+impl<F: Copy> NullableFn for Option<F> {
+    type Fn = F;
+}
+
 /// An opaque instance handle, owned by the plugin; the host only passes it back.
 pub type Handle = *mut c_void;
 
 /// Builds an instance from a UTF-8 TOML config string and the host context.
-pub type CreateFn = unsafe extern "C" fn(
-    config: AbiStr,
-    context: *const HostContext,
-    out_handle: *mut Handle,
-    error: *mut ErrorBuf,
-) -> Status;
+pub type CreateFn = Option<
+    unsafe extern "C" fn(
+        config: AbiStr,
+        context: *const HostContext,
+        out_handle: *mut Handle,
+        error: *mut ErrorBuf,
+    ) -> Status,
+>;
 
 /// The length of the descriptor this instance produces.
 pub type DescriptorLenFn =
-    unsafe extern "C" fn(handle: Handle, out_len: *mut usize, error: *mut ErrorBuf) -> Status;
+    Option<unsafe extern "C" fn(handle: Handle, out_len: *mut usize, error: *mut ErrorBuf) -> Status>;
 
 /// Describes `count` points into `out` (capacity `capacity` values); stores the length written, or the
 /// length needed with [`Status::BUFFER_TOO_SMALL`].
-pub type DescribeFn = unsafe extern "C" fn(
-    handle: Handle,
-    points: *const Point,
-    count: usize,
-    out: *mut f32,
-    capacity: usize,
-    out_len: *mut usize,
-    error: *mut ErrorBuf,
-) -> Status;
+pub type DescribeFn = Option<
+    unsafe extern "C" fn(
+        handle: Handle,
+        points: *const Point,
+        count: usize,
+        out: *mut f32,
+        capacity: usize,
+        out_len: *mut usize,
+        error: *mut ErrorBuf,
+    ) -> Status,
+>;
 
 /// Drops an instance; the handle is invalid afterwards whatever the status.
-pub type DestroyFn = unsafe extern "C" fn(handle: Handle, error: *mut ErrorBuf) -> Status;
+pub type DestroyFn = Option<unsafe extern "C" fn(handle: Handle, error: *mut ErrorBuf) -> Status>;
 
 /// The descriptor slot's function table ([`SlotKind::DESCRIPTOR`]).
 #[repr(C)]
 #[derive(Debug)]
 pub struct DescriptorVTable {
-    pub create: Option<CreateFn>,
-    pub descriptor_len: Option<DescriptorLenFn>,
-    pub describe: Option<DescribeFn>,
-    pub destroy: Option<DestroyFn>,
+    pub create: CreateFn,
+    pub descriptor_len: DescriptorLenFn,
+    pub describe: DescribeFn,
+    pub destroy: DestroyFn,
 }
 
 #[cfg(test)]
@@ -221,9 +264,9 @@ mod tests {
 
     #[test]
     fn the_version_prefix_never_moves() {
-        assert_eq!(std::mem::offset_of!(PluginDecl, abi_version), 0);
-        assert_eq!(std::mem::offset_of!(PluginDecl, layout_fingerprint), 8);
-        assert_eq!(std::mem::offset_of!(PluginDecl, framework_version), 16);
+        assert_eq!(std::mem::offset_of!(LibraryDecl, abi_version), 0);
+        assert_eq!(std::mem::offset_of!(LibraryDecl, layout_fingerprint), 8);
+        assert_eq!(std::mem::offset_of!(LibraryDecl, framework_version), 16);
     }
 
     #[test]
