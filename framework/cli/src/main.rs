@@ -74,6 +74,10 @@ enum Command {
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
+        /// Run the slot's conformance suite on every plugin of this out-of-tree library and report each
+        /// check (exit status 1 when one fails).
+        #[arg(long, value_name = "LIB")]
+        check: Option<PathBuf>,
     },
     /// Show or check configurations.
     #[command(subcommand)]
@@ -378,7 +382,10 @@ fn main() -> ExitCode {
             };
             commands::run(&registry, profile.or(profile_flag), &layers, &viewers)
         }
-        Command::Plugins { slot, json } => commands::plugins(&registry, slot.as_deref(), json),
+        Command::Plugins {
+            check: Some(library), ..
+        } => commands::plugin_check::check_library(&library),
+        Command::Plugins { slot, json, .. } => commands::plugins(&registry, slot.as_deref(), json),
         Command::Config(ConfigCommand::Show { profile, layers }) => {
             commands::config_show(&registry, profile, &layers)
         }

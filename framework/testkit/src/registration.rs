@@ -26,8 +26,53 @@ pub fn synthetic_pair(source_pose: &Pose, points: usize) -> (Cloud, Cloud, Pose)
 }
 
 /// Fine registration: recovers the truth from guesses perturbed by up to `perturbation_m` metres and
-/// `perturbation_deg` degrees.
+/// `perturbation_deg` degrees, and reports degenerate input and an unreachable guess as not converged.
+/// The same as running every check of [`fine_checks`].
 pub fn check_fine(
+    registration: &mut dyn FineRegistration,
+    perturbation_m: f64,
+    perturbation_deg: f64,
+    expect: RegistrationExpectations,
+) {
+    for (_, check) in fine_checks(perturbation_m, perturbation_deg, expect) {
+        check(registration);
+    }
+}
+
+/// One named check of the fine suite: it panics (by assertion) when the plugin fails it.
+pub type FineCheck = (&'static str, Box<dyn Fn(&mut dyn FineRegistration)>);
+
+/// One named check of the coarse suite.
+pub type CoarseCheck = (&'static str, Box<dyn Fn(&mut dyn CoarseRegistration)>);
+
+/// The fine registration suite as named checks, for reports such as `skid plugins --check`.
+pub fn fine_checks(
+    perturbation_m: f64,
+    perturbation_deg: f64,
+    expect: RegistrationExpectations,
+) -> Vec<FineCheck> {
+    vec![
+        (
+            "recovers a perturbed transform",
+            Box::new(move |registration: &mut dyn FineRegistration| {
+                fine_recovers_perturbed_transform(registration, perturbation_m, perturbation_deg, expect)
+            }),
+        ),
+        (
+            "degenerate input is not converged, with a reason",
+            Box::new(|registration: &mut dyn FineRegistration| fine_reports_degenerate_input(registration)),
+        ),
+        (
+            "no correspondences within reach is not converged",
+            Box::new(|registration: &mut dyn FineRegistration| {
+                fine_reports_an_unreachable_guess(registration)
+            }),
+        ),
+    ]
+}
+
+/// Recovers the truth from three perturbed guesses, converged, with finite information.
+pub fn fine_recovers_perturbed_transform(
     registration: &mut dyn FineRegistration,
     perturbation_m: f64,
     perturbation_deg: f64,
@@ -70,8 +115,10 @@ pub fn check_fine(
             result.inlier_ratio
         );
     }
+}
 
-    // Degenerate input: too few points, collinear points, and no correspondence within reach.
+/// Too few points and collinear points: an error, or a result that is not converged and says why.
+pub fn fine_reports_degenerate_input(registration: &mut dyn FineRegistration) {
     let tiny = Cloud::new(vec![Point::new(1.0, 2.0, 3.0), Point::new(2.0, 2.0, 3.0)]);
     let line = Cloud::new((0..200).map(|i| Point::new(i as f32 * 0.1, 0.0, 0.0)).collect());
     for (case, cloud) in [tiny, line].iter().enumerate() {
@@ -97,6 +144,13 @@ pub fn check_fine(
             );
         }
     }
+}
+
+/// A guess 1 km off: no correspondence within reach, so not converged (or an error), never NaN.
+pub fn fine_reports_an_unreachable_guess(registration: &mut dyn FineRegistration) {
+    let (target, source, _) = synthetic_pair(&planar_pose(2.0, 1.0, 1.8, 5f64.to_radians()), 30_000);
+    let prepared_target = registration.prepare(target.view()).expect("prepare target");
+    let prepared_source = registration.prepare(source.view()).expect("prepare source");
     let far = Pose::translation(1000.0, 0.0, 0.0);
     let result = registration.refine(&prepared_target, &prepared_source, &far);
     if let Ok(result) = result {
@@ -115,8 +169,41 @@ pub fn check_fine(
     }
 }
 
-/// Coarse registration: recovers yaws all around with a `offset_m` translation, without a prior.
+/// Coarse registration: recovers yaws all around with a `offset_m` translation, without a prior, and
+/// reports three points as invalid. The same as running every check of [`coarse_checks`].
 pub fn check_coarse(
+    registration: &mut dyn CoarseRegistration,
+    yaws_deg: &[f64],
+    offset_m: f64,
+    expect: RegistrationExpectations,
+) {
+    for (_, check) in coarse_checks(yaws_deg.to_vec(), offset_m, expect) {
+        check(registration);
+    }
+}
+
+/// The coarse registration suite as named checks.
+pub fn coarse_checks(
+    yaws_deg: Vec<f64>,
+    offset_m: f64,
+    expect: RegistrationExpectations,
+) -> Vec<CoarseCheck> {
+    vec![
+        (
+            "recovers large unknown transforms",
+            Box::new(move |registration: &mut dyn CoarseRegistration| {
+                coarse_recovers_unknown_transforms(registration, &yaws_deg, offset_m, expect)
+            }),
+        ),
+        (
+            "three points are not a valid registration",
+            Box::new(|registration: &mut dyn CoarseRegistration| coarse_reports_tiny_input(registration)),
+        ),
+    ]
+}
+
+/// Recovers each yaw with an `offset_m` translation, valid.
+pub fn coarse_recovers_unknown_transforms(
     registration: &mut dyn CoarseRegistration,
     yaws_deg: &[f64],
     offset_m: f64,
@@ -135,6 +222,10 @@ pub fn check_coarse(
             "yaw {yaw_deg}°: off by {translation_m:.3} m, {rotation_deg:.3}°"
         );
     }
+}
+
+/// Three points: an error, or a result marked invalid with a finite transform.
+pub fn coarse_reports_tiny_input(registration: &mut dyn CoarseRegistration) {
     let tiny = Cloud::new(vec![
         Point::new(1.0, 2.0, 3.0),
         Point::new(2.0, 2.0, 3.0),

@@ -4,6 +4,7 @@ pub mod bag;
 pub mod extra;
 pub mod pcm;
 pub mod plot;
+pub mod plugin_check;
 pub mod robot;
 pub mod sim_bag;
 pub mod table;
