@@ -31,6 +31,12 @@ pub const PROFILES: &[BenchProfile] = &[
         binary: "skid-bench-registration-fine",
     },
     BenchProfile {
+        name: "abi",
+        summary: "the C ABI's cost per registration call: built-in GICP vs the same code loaded as a cdylib (and the C++ example)",
+        package: "skid-bench",
+        binary: "skid-bench-abi",
+    },
+    BenchProfile {
         name: "pgo",
         summary: "pose-graph optimisation vs GTSAM and SE-Sync optima; PCM/GNC with wrong loops; multi-robot PCM sets",
         package: "skid-bench",

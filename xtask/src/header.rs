@@ -11,8 +11,9 @@ use anyhow::{Context, Result, bail};
 use skid_abi::ffi::level;
 
 /// The declarations a plugin needs; cbindgen adds every type they use.
-const ROOTS: [&str; 8] = [
+const ROOTS: [&str; 9] = [
     "LibraryDecl",
+    "OdometryVTable",
     "PluginDecl",
     "DescriptorVTable",
     "CoarseVTable",
@@ -23,14 +24,15 @@ const ROOTS: [&str; 8] = [
 ];
 
 /// Items of the sources that are not part of the plugin ABI (the log levels are written as macros).
-const EXCLUDED: [&str; 7] = ["ERROR", "WARN", "INFO", "DEBUG", "TRACE", "RawPoint", "ImuSample"];
+const EXCLUDED: [&str; 5] = ["ERROR", "WARN", "INFO", "DEBUG", "TRACE"];
 
 /// The header's path inside the workspace.
 pub const HEADER_PATH: &str = "framework/abi/include/skid_plugin.h";
 
 /// The sources that declare what crosses the boundary.
-const SOURCES: [&str; 3] = [
+const SOURCES: [&str; 4] = [
     "framework/abi/src/ffi/mod.rs",
+    "framework/abi/src/ffi/odometry.rs",
     "framework/abi/src/ffi/registration.rs",
     "framework/msgs/src/points.rs",
 ];

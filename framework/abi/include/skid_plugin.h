@@ -92,12 +92,21 @@ typedef SkidStatus (*SkidSetLoggerFn)(SkidLogFn log, SkidEnabledFn enabled);
  */
 typedef uint32_t SkidSlotKind;
 #define SkidSlotKind_SOURCE 1
+/**
+ * The table is an [`OdometryVTable`].
+ */
 #define SkidSlotKind_ODOMETRY 2
 /**
  * The table is a [`DescriptorVTable`].
  */
 #define SkidSlotKind_DESCRIPTOR 3
+/**
+ * The table is a [`CoarseVTable`].
+ */
 #define SkidSlotKind_COARSE 4
+/**
+ * The table is a [`FineVTable`].
+ */
 #define SkidSlotKind_FINE 5
 #define SkidSlotKind_VERIFIER 6
 #define SkidSlotKind_BACKEND 7
@@ -128,8 +137,8 @@ typedef struct SkidPluginDecl {
    */
   struct SkidAbiStr default_config;
   /**
-   * Points to the slot's function table: a [`DescriptorVTable`], [`CoarseVTable`] or [`FineVTable`]
-   * as [`slot_kind`](Self::slot_kind) says.
+   * Points to the slot's function table: an [`OdometryVTable`], [`DescriptorVTable`], [`CoarseVTable`]
+   * or [`FineVTable`] as [`slot_kind`](Self::slot_kind) says.
    */
   const void *slot_table;
 } SkidPluginDecl;
@@ -230,11 +239,90 @@ typedef SkidStatus (*SkidCreateFn)(struct SkidAbiStr config,
                                    struct SkidErrorBuf *error);
 
 /**
- * The length of the descriptor this instance produces.
+ * A point as the sensor delivers it: position, intensity, the time offset of its firing within the
+ * sweep (seconds from the scan stamp, used for deskewing) and the laser ring that produced it.
  */
-typedef SkidStatus (*SkidDescriptorLenFn)(SkidHandle handle,
-                                          size_t *out_len,
-                                          struct SkidErrorBuf *error);
+typedef struct SKID_ALIGNED(16) SkidRawPoint {
+  float x;
+  float y;
+  float z;
+  float intensity;
+  /**
+   * Seconds after the scan stamp at which this point was measured.
+   */
+  float time_offset_s;
+  /**
+   * Index of the laser (beam) that fired, 0 = lowest elevation; `u16::MAX` when unknown.
+   */
+  uint16_t ring;
+  /**
+   * Explicit padding so the layout has no uninitialised bytes.
+   */
+  uint8_t reserved[10];
+} SkidRawPoint;
+/**
+ * The ring value meaning "this sensor does not report rings".
+ */
+#define SkidRawPoint_UNKNOWN_RING UINT16_MAX
+
+/**
+ * One IMU sample in the IMU (= sensor) frame: specific force in m/s² and angular rate in rad/s.
+ */
+typedef struct SkidImuSample {
+  uint64_t stamp_nanos;
+  double accel_mps2[3];
+  double gyro_radps[3];
+} SkidImuSample;
+
+/**
+ * A rigid transform as a row-major 4×4 matrix: rotation in the upper-left 3×3 block, translation in
+ * metres in the last column, and `0 0 0 1` in the last row.
+ */
+typedef struct SkidAbiTransform {
+  double matrix[16];
+} SkidAbiTransform;
+/**
+ * The identity transform.
+ */
+#define SkidAbiTransform_IDENTITY (SkidAbiTransform){ .matrix = { 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, } }
+
+/**
+ * One scan, borrowed for the duration of a `register` call.
+ */
+typedef struct SkidAbiScan {
+  /**
+   * The robot the scan belongs to.
+   */
+  uint32_t robot;
+  /**
+   * Per-robot scan counter, from 0.
+   */
+  uint32_t sequence;
+  /**
+   * Start of the sweep in nanoseconds; point time offsets are relative to it.
+   */
+  uint64_t stamp_nanos;
+  /**
+   * Points in the sensor frame.
+   */
+  const struct SkidRawPoint *points;
+  size_t point_count;
+  /**
+   * IMU samples between the previous scan's stamp and this one's (none without an IMU).
+   */
+  const struct SkidImuSample *imu;
+  size_t imu_count;
+  /**
+   * Non-zero when `ground_truth_world_from_sensor` holds the true pose (simulation, datasets).
+   */
+  uint32_t has_ground_truth;
+  /**
+   * Non-zero when `imu_from_sensor` holds the LiDAR's pose in the IMU frame.
+   */
+  uint32_t has_imu_from_sensor;
+  struct SkidAbiTransform ground_truth_world_from_sensor;
+  struct SkidAbiTransform imu_from_sensor;
+} SkidAbiScan;
 
 /**
  * A 3D point with intensity, in metres, 16-byte aligned so four of them fill a cache line exactly.
@@ -247,6 +335,66 @@ typedef struct SKID_ALIGNED(16) SkidPoint {
 } SkidPoint;
 
 /**
+ * What `register` writes: the pose, the motion since the previous scan, and a keyframe when the
+ * plugin's keyframe policy fired.
+ */
+typedef struct SkidOdometryResult {
+  uint64_t stamp_nanos;
+  /**
+   * Non-zero when this scan became a keyframe.
+   */
+  uint32_t is_keyframe;
+  /**
+   * Explicit padding.
+   */
+  uint32_t reserved;
+  /**
+   * Pose of the sensor at the scan stamp in the robot's odometry world frame.
+   */
+  struct SkidAbiTransform world_from_sensor;
+  /**
+   * Motion since the previous scan, `previous_from_current`.
+   */
+  struct SkidAbiTransform previous_from_current;
+  /**
+   * The keyframe's cloud (deskewed, downsampled, sensor frame), lent until the next call on the
+   * instance; empty when `is_keyframe` is zero.
+   */
+  const struct SkidPoint *keyframe_points;
+  size_t keyframe_count;
+} SkidOdometryResult;
+
+/**
+ * Registers one scan. Scans arrive in order; a scan the plugin cannot use is an error and leaves its
+ * state as it was.
+ */
+typedef SkidStatus (*SkidRegisterFn)(SkidHandle handle,
+                                     const struct SkidAbiScan *scan,
+                                     struct SkidOdometryResult *out,
+                                     struct SkidErrorBuf *error);
+
+/**
+ * Drops an instance; the handle is invalid afterwards whatever the status.
+ */
+typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
+
+/**
+ * The odometry slot's function table ([`SlotKind::ODOMETRY`](super::SlotKind::ODOMETRY)).
+ */
+typedef struct SkidOdometryVTable {
+  SkidCreateFn create;
+  SkidRegisterFn register_;
+  SkidDestroyFn destroy;
+} SkidOdometryVTable;
+
+/**
+ * The length of the descriptor this instance produces.
+ */
+typedef SkidStatus (*SkidDescriptorLenFn)(SkidHandle handle,
+                                          size_t *out_len,
+                                          struct SkidErrorBuf *error);
+
+/**
  * Describes `count` points into `out` (capacity `capacity` values); stores the length written, or the
  * length needed with [`Status::BUFFER_TOO_SMALL`].
  */
@@ -257,11 +405,6 @@ typedef SkidStatus (*SkidDescribeFn)(SkidHandle handle,
                                      size_t capacity,
                                      size_t *out_len,
                                      struct SkidErrorBuf *error);
-
-/**
- * Drops an instance; the handle is invalid afterwards whatever the status.
- */
-typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
 
 /**
  * The descriptor slot's function table ([`SlotKind::DESCRIPTOR`]).
@@ -281,18 +424,6 @@ typedef struct SkidAbiCloud {
   const struct SkidPoint *points;
   size_t count;
 } SkidAbiCloud;
-
-/**
- * A rigid transform as a row-major 4×4 matrix: rotation in the upper-left 3×3 block, translation in
- * metres in the last column, and `0 0 0 1` in the last row.
- */
-typedef struct SkidAbiTransform {
-  double matrix[16];
-} SkidAbiTransform;
-/**
- * The identity transform.
- */
-#define SkidAbiTransform_IDENTITY (SkidAbiTransform){ .matrix = { 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, } }
 
 /**
  * What a coarse `align` writes (skid-core's `CoarseAlignment`). Booleans are `u32`, non-zero for true.

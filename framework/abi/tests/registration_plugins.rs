@@ -68,7 +68,7 @@ fn gicp_through_the_abi_conforms_and_equals_the_built_in_on_a_real_pair() {
     let mut registry = Registry::new();
     let example = load_library(library("skid-example-cdylib")).unwrap();
     let names: Vec<&str> = example.plugins().iter().map(|plugin| plugin.name()).collect();
-    assert_eq!(names, ["ring_histogram", "gicp_cdylib"]);
+    assert_eq!(names, ["kiss_icp_cdylib", "ring_histogram", "gicp_cdylib"]);
     example.register(&mut registry).unwrap();
     skid_fine_gicp::register(&mut registry).unwrap();
     let mut loaded = fine(&registry, "gicp_cdylib", "");
@@ -120,6 +120,69 @@ fn compile_fixture(name: &str, extra: &[&str]) -> PathBuf {
         .unwrap_or_else(|error| panic!("running the C compiler `{compiler}`: {error}"));
     assert!(status.success(), "compiling the C fixture failed");
     out
+}
+
+#[test]
+fn kiss_icp_through_the_abi_conforms_and_follows_the_built_in_on_kitti() {
+    let mut registry = Registry::new();
+    load_library(library("skid-example-cdylib"))
+        .unwrap()
+        .register(&mut registry)
+        .unwrap();
+    skid_odometry_kiss::register(&mut registry).unwrap();
+    let context = PluginContext::default();
+    let make = |name: &str| {
+        registry
+            .odometry
+            .create(name, &Params::default(), &context)
+            .unwrap()
+    };
+    skid_testkit::odometry::check_odometry(
+        || make("kiss_icp_cdylib"),
+        skid_testkit::odometry::OdometryExpectations::default(),
+    );
+
+    let (mut built_in, mut loaded) = (make("kiss_icp"), make("kiss_icp_cdylib"));
+    let mut keyframes = 0;
+    for frame in 0..16 {
+        let scan = skid_core::Scan {
+            robot: skid_core::RobotId(0),
+            sequence: frame,
+            stamp_nanos: u64::from(frame) * 100_000_000,
+            points: support::kitti_scan(frame)
+                .iter()
+                .map(|p| {
+                    skid_core::RawPoint::new(
+                        p.x,
+                        p.y,
+                        p.z,
+                        p.intensity,
+                        0.0,
+                        skid_core::RawPoint::UNKNOWN_RING,
+                    )
+                })
+                .collect(),
+            ..skid_core::Scan::default()
+        };
+        let (a, b) = (built_in.register(&scan).unwrap(), loaded.register(&scan).unwrap());
+        assert!(
+            (a.world_from_sensor.to_homogeneous() - b.world_from_sensor.to_homogeneous())
+                .abs()
+                .max()
+                < 1e-9,
+            "frame {frame}: the same code gives the same pose"
+        );
+        assert_eq!(a.keyframe.is_some(), b.keyframe.is_some(), "frame {frame}");
+        if let (Some(a), Some(b)) = (a.keyframe, b.keyframe) {
+            assert_eq!(a.id, b.id);
+            assert_eq!(a.cloud.points, b.cloud.points);
+            keyframes += 1;
+        }
+    }
+    assert!(
+        keyframes >= 2,
+        "KITTI's first 16 frames drive about 13 m: {keyframes} keyframes"
+    );
 }
 
 #[test]

@@ -6,13 +6,16 @@
 //! change when the sensor turns about its vertical axis, so the descriptor is invariant to yaw; it
 //! keeps no angular information at all, which makes it cheap and coarse.
 //!
-//! It also provides `gicp_cdylib` (module [`gicp`]), the built-in GICP fine registration behind the C
-//! ABI, so that one library shows both kinds of Rust plugin and the boundary's cost can be measured.
+//! It also provides `gicp_cdylib` (module [`gicp`]) and `kiss_icp_cdylib` (module [`kiss`]), the built-in
+//! GICP fine registration and KISS-ICP odometry behind the C ABI, so that one library shows three slots
+//! of Rust plugin and the boundary's cost can be measured against the same code built in.
 //!
 //! The crate contains no `unsafe` code: it implements [`skid_abi::DescriptorPlugin`] and
-//! [`skid_abi::FinePlugin`] and lets [`skid_abi::export_plugins!`] generate the C side.
+//! [`skid_abi::FinePlugin`] and [`skid_abi::OdometryPlugin`], and lets [`skid_abi::export_plugins!`]
+//! generate the C side.
 
 pub mod gicp;
+pub mod kiss;
 
 use serde::Deserialize;
 use skid_abi::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
@@ -167,7 +170,11 @@ impl DescriptorPlugin for RingHistogram {
     }
 }
 
-skid_abi::export_plugins!(descriptor: RingHistogram, fine: gicp::GicpCdylib);
+skid_abi::export_plugins!(
+    odometry: kiss::KissIcpCdylib,
+    descriptor: RingHistogram,
+    fine: gicp::GicpCdylib,
+);
 
 #[cfg(test)]
 mod tests {

@@ -10,12 +10,14 @@
 //! a foreign plugin is an error the host can report rather than undefined behaviour; [`Checked`] names
 //! the function type inside once the host has checked it.
 
+mod odometry;
 mod registration;
 
 use std::ffi::c_void;
 
 use skid_msgs::Point;
 
+pub use odometry::{AbiScan, OdometryResult, OdometryVTable, RegisterFn};
 pub use registration::{
     AbiCloud, AbiTransform, AlignFn, CoarseResult, CoarseVTable, DestroyPreparedFn, FineResult, FineVTable,
     PrepareFn, PreparedPointsFn, RefineFn, TextBuf,
@@ -123,10 +125,13 @@ pub struct SlotKind(pub u32);
 
 impl SlotKind {
     pub const SOURCE: SlotKind = SlotKind(1);
+    /// The table is an [`OdometryVTable`].
     pub const ODOMETRY: SlotKind = SlotKind(2);
     /// The table is a [`DescriptorVTable`].
     pub const DESCRIPTOR: SlotKind = SlotKind(3);
+    /// The table is a [`CoarseVTable`].
     pub const COARSE: SlotKind = SlotKind(4);
+    /// The table is a [`FineVTable`].
     pub const FINE: SlotKind = SlotKind(5);
     pub const VERIFIER: SlotKind = SlotKind(6);
     pub const BACKEND: SlotKind = SlotKind(7);
@@ -192,8 +197,8 @@ pub struct PluginDecl {
     pub summary: AbiStr,
     /// The default parameters as TOML text.
     pub default_config: AbiStr,
-    /// Points to the slot's function table: a [`DescriptorVTable`], [`CoarseVTable`] or [`FineVTable`]
-    /// as [`slot_kind`](Self::slot_kind) says.
+    /// Points to the slot's function table: an [`OdometryVTable`], [`DescriptorVTable`], [`CoarseVTable`]
+    /// or [`FineVTable`] as [`slot_kind`](Self::slot_kind) says.
     pub slot_table: *const c_void,
 }
 

@@ -13,8 +13,8 @@ use skid_core::{Params, Slot};
 use super::{AbiError, logging};
 use crate::ffi::{
     AbiStr, AlignFn, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable,
-    DestroyFn, DestroyPreparedFn, FineVTable, LibraryDecl, PluginDecl, PrepareFn, PreparedPointsFn, RefineFn,
-    SlotKind, Status,
+    DestroyFn, DestroyPreparedFn, FineVTable, LibraryDecl, OdometryVTable, PluginDecl, PrepareFn,
+    PreparedPointsFn, RefineFn, RegisterFn, SlotKind, Status,
 };
 use crate::{ABI_VERSION, ENTRY_SYMBOL, FRAMEWORK_VERSION};
 
@@ -60,6 +60,7 @@ impl PluginSpec {
     /// The slot the plugin fills.
     pub(crate) fn slot(&self) -> Slot {
         match self.table {
+            SlotTable::Odometry(_) => Slot::Odometry,
             SlotTable::Descriptor(_) => Slot::Descriptor,
             SlotTable::Coarse(_) => Slot::Coarse,
             SlotTable::Fine(_) => Slot::Fine,
@@ -70,9 +71,18 @@ impl PluginSpec {
 /// A plugin's function table, every pointer checked non-null.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum SlotTable {
+    Odometry(OdometryFns),
     Descriptor(DescriptorFns),
     Coarse(CoarseFns),
     Fine(FineFns),
+}
+
+/// The odometry function table.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct OdometryFns {
+    pub(crate) create: Checked<CreateFn>,
+    pub(crate) register: Checked<RegisterFn>,
+    pub(crate) destroy: Checked<DestroyFn>,
 }
 
 /// The descriptor function table.
@@ -268,6 +278,20 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
         .map_err(|error| format!("`{name}`: the default config is not TOML: {error}"))?;
     let null_entry = |slot: &str| format!("`{name}`: the {slot} function table has a null entry");
     let table = match decl.slot_kind {
+        SlotKind::ODOMETRY => {
+            // SAFETY: for this kind the table is a static `OdometryVTable` (null is checked).
+            let table = unsafe { decl.slot_table.cast::<OdometryVTable>().as_ref() }
+                .ok_or_else(|| format!("`{name}`: the odometry function table is null"))?;
+            let (Some(create), Some(register), Some(destroy)) = (table.create, table.register, table.destroy)
+            else {
+                return Err(null_entry("odometry").into());
+            };
+            SlotTable::Odometry(OdometryFns {
+                create,
+                register,
+                destroy,
+            })
+        }
         SlotKind::DESCRIPTOR => {
             // SAFETY: for this kind the table is a static `DescriptorVTable` (null is checked).
             let table = unsafe { decl.slot_table.cast::<DescriptorVTable>().as_ref() }

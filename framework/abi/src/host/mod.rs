@@ -10,6 +10,7 @@ mod descriptor;
 mod index;
 mod library;
 mod logging;
+mod odometry;
 mod registration;
 
 use std::path::{Path, PathBuf};
@@ -19,6 +20,7 @@ use skid_core::{ParamError, Params, PluginError, Registry, Slot};
 pub use descriptor::DynDescriptor;
 pub use index::ExactL2Index;
 pub use logging::PLUGIN_TARGET;
+pub use odometry::DynOdometry;
 pub use registration::{DynCoarse, DynFine};
 
 use library::{Library, PluginSpec, SlotTable};
@@ -65,7 +67,7 @@ pub enum AbiError {
     },
 
     /// The plugin fills a slot this host cannot load dynamically yet.
-    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: descriptor, coarse, fine)", path.display())]
+    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: odometry, descriptor, coarse, fine)", path.display())]
     UnsupportedSlot { path: PathBuf, name: String, kind: u32 },
 
     /// The declaration is broken: a null pointer, a non-UTF-8 string, an unparsable default config.
@@ -175,6 +177,7 @@ impl LoadedPlugin {
     pub fn register(&self, registry: &mut Registry) -> Result<(), AbiError> {
         let plugin = self.plugin;
         let result = match plugin.table {
+            SlotTable::Odometry(fns) => registry.odometry.register(odometry::entry(plugin, fns)),
             SlotTable::Descriptor(fns) => registry.descriptor.register(descriptor::entry(plugin, fns)),
             SlotTable::Coarse(fns) => registry.coarse.register(registration::coarse_entry(plugin, fns)),
             SlotTable::Fine(fns) => registry.fine.register(registration::fine_entry(plugin, fns)),
@@ -188,6 +191,7 @@ impl LoadedPlugin {
     /// Checks parameters by building an instance and destroying it again.
     pub fn validate(&self, params: &Params) -> Result<(), ParamError> {
         let (create, destroy) = match self.plugin.table {
+            SlotTable::Odometry(fns) => (fns.create, fns.destroy),
             SlotTable::Descriptor(fns) => (fns.create, fns.destroy),
             SlotTable::Coarse(fns) => (fns.create, fns.destroy),
             SlotTable::Fine(fns) => (fns.create, fns.destroy),
@@ -204,6 +208,18 @@ impl LoadedPlugin {
     ) -> Option<Result<DynDescriptor, PluginError>> {
         match self.plugin.table {
             SlotTable::Descriptor(fns) => Some(DynDescriptor::create(self.plugin, fns, params, context)),
+            _ => None,
+        }
+    }
+
+    /// An odometry instance built from `params`; `None` when the plugin is not one.
+    pub fn create_odometry(
+        &self,
+        params: &Params,
+        context: &skid_core::PluginContext,
+    ) -> Option<Result<DynOdometry, PluginError>> {
+        match self.plugin.table {
+            SlotTable::Odometry(fns) => Some(DynOdometry::create(self.plugin, fns, params, context)),
             _ => None,
         }
     }

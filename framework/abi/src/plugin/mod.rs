@@ -51,6 +51,7 @@
 mod descriptor;
 mod glue;
 mod logger;
+mod odometry;
 mod panic_hook;
 mod registration;
 
@@ -60,6 +61,7 @@ use serde::de::DeserializeOwned;
 
 pub use descriptor::{DescriptorPlugin, descriptor_vtable};
 pub use glue::{LibraryName, library_decl, plugin_decl};
+pub use odometry::{OdometryOutcome, OdometryPlugin, ScanView, odometry_vtable};
 pub use registration::{CoarseOutcome, CoarsePlugin, FineOutcome, FinePlugin, coarse_vtable, fine_vtable};
 
 /// What the host tells a new instance about where it runs (skid-core's `PluginContext`, as it crosses).
@@ -151,8 +153,9 @@ pub fn parse_config<C: DeserializeOwned>(text: &str) -> Result<C, ConfigError> {
     })
 }
 
-/// Exports this library's plugins: one `slot: Type` pair per plugin, where the slot is `descriptor`
-/// (a [`DescriptorPlugin`]), `coarse` (a [`CoarsePlugin`]) or `fine` (a [`FinePlugin`]). Generates the
+/// Exports this library's plugins: one `slot: Type` pair per plugin, where the slot is `odometry` (an
+/// [`OdometryPlugin`]), `descriptor` (a [`DescriptorPlugin`]), `coarse` (a [`CoarsePlugin`]) or `fine`
+/// (a [`FinePlugin`]). Generates the
 /// function tables, the static declarations and the `skid_plugin_entry` symbol. Use it once per library:
 ///
 /// ```ignore
@@ -170,6 +173,16 @@ macro_rules! export_plugins {
             <$plugin as $crate::DescriptorPlugin>::NAME,
             <$plugin as $crate::DescriptorPlugin>::SUMMARY,
             <$plugin as $crate::DescriptorPlugin>::DEFAULT_CONFIG,
+            &TABLE,
+        )
+    }};
+    (@decl odometry $plugin:ty) => {{
+        static TABLE: $crate::ffi::OdometryVTable = $crate::plugin::odometry_vtable::<$plugin>();
+        $crate::plugin::plugin_decl(
+            $crate::ffi::SlotKind::ODOMETRY,
+            <$plugin as $crate::OdometryPlugin>::NAME,
+            <$plugin as $crate::OdometryPlugin>::SUMMARY,
+            <$plugin as $crate::OdometryPlugin>::DEFAULT_CONFIG,
             &TABLE,
         )
     }};

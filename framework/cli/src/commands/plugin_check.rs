@@ -15,6 +15,7 @@ use anyhow::{Context, Result, bail};
 use skid_abi::LoadedPlugin;
 use skid_core::{Params, PluginContext, Slot};
 use skid_testkit::descriptor::{DescriptorExpectations, check_descriptor};
+use skid_testkit::odometry::{OdometryExpectations, check_odometry};
 use skid_testkit::registration::{RegistrationExpectations, coarse_checks, fine_checks};
 
 /// The bar a fine registration must clear: the built-in GICP's (1 m and 10° off, back within 5 cm and 0.5°).
@@ -130,6 +131,16 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
             Some(Err(error)) => not_created(name, error),
             None => Vec::new(),
         },
+        Slot::Odometry => match plugin.create_odometry(&defaults, &context) {
+            Some(Ok(_)) => vec![run_check("recovers a known motion; bad scans are errors", || {
+                check_odometry(
+                    || make_odometry(plugin, &defaults, &context),
+                    OdometryExpectations::default(),
+                )
+            })],
+            Some(Err(error)) => not_created(name, error),
+            None => Vec::new(),
+        },
         Slot::Descriptor => {
             if let Some(Err(error)) = plugin.create_descriptor(&defaults, &context) {
                 return not_created(name, error);
@@ -149,6 +160,20 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
             format!("no conformance suite runs for the {other} slot through the C ABI"),
         ),
     }
+}
+
+/// A fresh odometry for the suite; a failure here fails the check (it was built once before).
+#[allow(clippy::expect_used)] // Inside a check: a panic is the check's way to fail, caught by `run_check`.
+fn make_odometry(
+    plugin: &LoadedPlugin,
+    params: &Params,
+    context: &PluginContext,
+) -> Box<dyn skid_core::slots::Odometry> {
+    let odometry = plugin
+        .create_odometry(params, context)
+        .expect("an odometry plugin")
+        .expect("builds from its default parameters");
+    Box::new(odometry)
 }
 
 /// A fresh descriptor for the suite; a failure here fails the check (it was built once before).

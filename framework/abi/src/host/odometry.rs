@@ -1,0 +1,164 @@
+//! A dynamic odometry plugin seen through skid-core's [`Odometry`] trait, and its registry entry.
+//!
+//! The host lends the scan by pointer and copies the keyframe cloud the plugin lends back, after
+//! checking that it is no larger than the scan and that both poses are rigid motions. Keyframe ids are
+//! the host's: the robot and a per-instance counter, as the built-in odometries number them.
+
+use std::ffi::c_void;
+use std::ptr::NonNull;
+
+use skid_core::slots::{Odometry, OdometryUpdate};
+use skid_core::{
+    Cloud, Keyframe, KeyframeId, Params, PluginContext, PluginEntry, PluginError, PluginResult, Scan,
+};
+
+use super::call::{CallError, ErrorSlot, create_instance, destroy_instance, validate_params};
+use super::library::{OdometryFns, PluginSpec};
+use crate::ffi::{AbiScan, AbiTransform, OdometryResult, Status};
+use crate::transform::{abi_from_pose, pose_from_abi};
+
+/// The registry entry of a loaded odometry plugin.
+pub(super) fn entry(plugin: &'static PluginSpec, fns: OdometryFns) -> PluginEntry<dyn Odometry> {
+    PluginEntry::from_parts(
+        &plugin.name,
+        &plugin.summary,
+        &plugin.path.display().to_string(),
+        plugin.defaults.clone(),
+        move |params: &Params| validate_params(plugin, fns.create, fns.destroy, params),
+        move |params: &Params, context: &PluginContext| {
+            DynOdometry::create(plugin, fns, params, context)
+                .map(|odometry| Box::new(odometry) as Box<dyn Odometry>)
+        },
+    )
+}
+
+/// An instance of a dynamically loaded odometry plugin. After a panic it refuses further calls.
+pub struct DynOdometry {
+    handle: NonNull<c_void>,
+    plugin: &'static PluginSpec,
+    fns: OdometryFns,
+    keyframes: u32,
+    poisoned: bool,
+}
+
+// SAFETY: the plugin type behind the handle is `Send` (required by `OdometryPlugin` and the header's
+// contract), the function table is immutable static data, and `&mut self` serialises every call.
+unsafe impl Send for DynOdometry {}
+
+impl DynOdometry {
+    pub(super) fn create(
+        plugin: &'static PluginSpec,
+        fns: OdometryFns,
+        params: &Params,
+        context: &PluginContext,
+    ) -> PluginResult<Self> {
+        let handle = create_instance(plugin, fns.create, params, context)
+            .map_err(|error| error.into_plugin_error(&plugin.name))?;
+        Ok(Self {
+            handle,
+            plugin,
+            fns,
+            keyframes: 0,
+            poisoned: false,
+        })
+    }
+
+    fn fail(&mut self, error: CallError) -> PluginError {
+        self.poisoned |= error.status == Status::PANICKED;
+        error.into_plugin_error(&self.plugin.name)
+    }
+
+    fn bad_output(&self, message: String) -> PluginError {
+        PluginError::failed(&self.plugin.name, format!("register: {message}"))
+    }
+}
+
+impl Odometry for DynOdometry {
+    fn register(&mut self, scan: &Scan) -> PluginResult<OdometryUpdate> {
+        if self.poisoned {
+            return Err(PluginError::failed(
+                &self.plugin.name,
+                "this instance panicked in an earlier call and is unusable; create a new one",
+            ));
+        }
+        let lent = AbiScan {
+            robot: scan.robot.0,
+            sequence: scan.sequence,
+            stamp_nanos: scan.stamp_nanos,
+            points: scan.points.as_ptr(),
+            point_count: scan.points.len(),
+            imu: scan.imu.as_ptr(),
+            imu_count: scan.imu.len(),
+            has_ground_truth: u32::from(scan.ground_truth_world_from_sensor.is_some()),
+            has_imu_from_sensor: u32::from(scan.imu_from_sensor.is_some()),
+            ground_truth_world_from_sensor: scan
+                .ground_truth_world_from_sensor
+                .as_ref()
+                .map_or(AbiTransform::IDENTITY, abi_from_pose),
+            imu_from_sensor: scan
+                .imu_from_sensor
+                .as_ref()
+                .map_or(AbiTransform::IDENTITY, abi_from_pose),
+        };
+        let mut out = OdometryResult {
+            stamp_nanos: scan.stamp_nanos,
+            is_keyframe: 0,
+            reserved: 0,
+            world_from_sensor: AbiTransform::IDENTITY,
+            previous_from_current: AbiTransform::IDENTITY,
+            keyframe_points: std::ptr::null(),
+            keyframe_count: 0,
+        };
+        let mut error = ErrorSlot::new();
+        // SAFETY: a live handle of this plugin; the scan's buffers and the output are host data valid for
+        // the call.
+        let status =
+            unsafe { (self.fns.register)(self.handle.as_ptr(), &lent, &mut out, error.as_mut_ptr()) };
+        error.result(status).map_err(|error| self.fail(error))?;
+        let world_from_sensor =
+            pose_from_abi(&out.world_from_sensor).map_err(|reason| self.bad_output(reason))?;
+        let previous_from_current =
+            pose_from_abi(&out.previous_from_current).map_err(|reason| self.bad_output(reason))?;
+        let keyframe = if out.is_keyframe != 0 {
+            if out.keyframe_count > scan.points.len()
+                || (out.keyframe_count > 0 && out.keyframe_points.is_null())
+            {
+                return Err(self.bad_output(format!(
+                    "a keyframe of {} points at {:p} from a scan of {}",
+                    out.keyframe_count,
+                    out.keyframe_points,
+                    scan.points.len()
+                )));
+            }
+            let points = if out.keyframe_count == 0 {
+                Vec::new()
+            } else {
+                // SAFETY: the plugin lends `keyframe_count` points until its next call, and the count is
+                // no larger than the scan it was given.
+                unsafe { std::slice::from_raw_parts(out.keyframe_points, out.keyframe_count) }.to_vec()
+            };
+            let id = KeyframeId::new(scan.robot.0, self.keyframes);
+            self.keyframes += 1;
+            Some(Keyframe {
+                id,
+                stamp_nanos: out.stamp_nanos,
+                world_from_sensor,
+                cloud: Cloud::new(points),
+            })
+        } else {
+            None
+        };
+        Ok(OdometryUpdate {
+            stamp_nanos: out.stamp_nanos,
+            world_from_sensor,
+            previous_from_current,
+            keyframe,
+        })
+    }
+}
+
+impl Drop for DynOdometry {
+    fn drop(&mut self) {
+        destroy_instance(self.plugin, self.fns.destroy, self.handle);
+    }
+}
