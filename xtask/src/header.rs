@@ -11,8 +11,9 @@ use anyhow::{Context, Result, bail};
 use skid_abi::ffi::level;
 
 /// The declarations a plugin needs; cbindgen adds every type they use.
-const ROOTS: [&str; 9] = [
+const ROOTS: [&str; 10] = [
     "LibraryDecl",
+    "SourceVTable",
     "OdometryVTable",
     "PluginDecl",
     "DescriptorVTable",
@@ -32,7 +33,7 @@ pub const HEADER_PATH: &str = "framework/abi/include/skid_plugin.h";
 /// The sources that declare what crosses the boundary.
 const SOURCES: [&str; 4] = [
     "framework/abi/src/ffi/mod.rs",
-    "framework/abi/src/ffi/odometry.rs",
+    "framework/abi/src/ffi/frontend.rs",
     "framework/abi/src/ffi/registration.rs",
     "framework/msgs/src/points.rs",
 ];

@@ -91,6 +91,9 @@ typedef SkidStatus (*SkidSetLoggerFn)(SkidLogFn log, SkidEnabledFn enabled);
  * Which slot a plugin fills, and so which table [`PluginDecl::slot_table`] points to.
  */
 typedef uint32_t SkidSlotKind;
+/**
+ * The table is a [`SourceVTable`].
+ */
 #define SkidSlotKind_SOURCE 1
 /**
  * The table is an [`OdometryVTable`].
@@ -137,8 +140,8 @@ typedef struct SkidPluginDecl {
    */
   struct SkidAbiStr default_config;
   /**
-   * Points to the slot's function table: an [`OdometryVTable`], [`DescriptorVTable`], [`CoarseVTable`]
-   * or [`FineVTable`] as [`slot_kind`](Self::slot_kind) says.
+   * Points to the slot's function table: a [`SourceVTable`], [`OdometryVTable`], [`DescriptorVTable`],
+   * [`CoarseVTable`] or [`FineVTable`] as [`slot_kind`](Self::slot_kind) says.
    */
   const void *slot_table;
 } SkidPluginDecl;
@@ -239,6 +242,28 @@ typedef SkidStatus (*SkidCreateFn)(struct SkidAbiStr config,
                                    struct SkidErrorBuf *error);
 
 /**
+ * Facts about a source the host asks once, after creating it.
+ */
+typedef struct SkidSourceInfo {
+  /**
+   * Non-zero when the scans carry IMU samples.
+   */
+  uint32_t provides_imu;
+  /**
+   * Non-zero when `remaining_scans` holds how many scans remain.
+   */
+  uint32_t knows_remaining;
+  uint64_t remaining_scans;
+} SkidSourceInfo;
+
+/**
+ * Fills a [`SourceInfo`].
+ */
+typedef SkidStatus (*SkidSourceInfoFn)(SkidHandle handle,
+                                       struct SkidSourceInfo *out,
+                                       struct SkidErrorBuf *error);
+
+/**
  * A point as the sensor delivers it: position, intensity, the time offset of its firing within the
  * sweep (seconds from the scan stamp, used for deskewing) and the laser ring that produced it.
  */
@@ -287,7 +312,7 @@ typedef struct SkidAbiTransform {
 #define SkidAbiTransform_IDENTITY (SkidAbiTransform){ .matrix = { 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, } }
 
 /**
- * One scan, borrowed for the duration of a `register` call.
+ * One scan: lent for the duration of a `register` call, or by a source until its next call.
  */
 typedef struct SkidAbiScan {
   /**
@@ -323,6 +348,30 @@ typedef struct SkidAbiScan {
   struct SkidAbiTransform ground_truth_world_from_sensor;
   struct SkidAbiTransform imu_from_sensor;
 } SkidAbiScan;
+
+/**
+ * The next scan of a source: on success `out_has_scan` says whether there was one (zero at the end of
+ * the sequence) and `out_scan` describes it, its buffers lent until the next call on the instance.
+ */
+typedef SkidStatus (*SkidNextScanFn)(SkidHandle handle,
+                                     struct SkidAbiScan *out_scan,
+                                     uint32_t *out_has_scan,
+                                     struct SkidErrorBuf *error);
+
+/**
+ * Drops an instance; the handle is invalid afterwards whatever the status.
+ */
+typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
+
+/**
+ * The source slot's function table ([`SlotKind::SOURCE`](super::SlotKind::SOURCE)).
+ */
+typedef struct SkidSourceVTable {
+  SkidCreateFn create;
+  SkidSourceInfoFn info;
+  SkidNextScanFn next_scan;
+  SkidDestroyFn destroy;
+} SkidSourceVTable;
 
 /**
  * A 3D point with intensity, in metres, 16-byte aligned so four of them fill a cache line exactly.
@@ -372,11 +421,6 @@ typedef SkidStatus (*SkidRegisterFn)(SkidHandle handle,
                                      const struct SkidAbiScan *scan,
                                      struct SkidOdometryResult *out,
                                      struct SkidErrorBuf *error);
-
-/**
- * Drops an instance; the handle is invalid afterwards whatever the status.
- */
-typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
 
 /**
  * The odometry slot's function table ([`SlotKind::ODOMETRY`](super::SlotKind::ODOMETRY)).

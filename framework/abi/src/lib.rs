@@ -4,15 +4,16 @@
 //! `extern "C"` symbol, [`ENTRY_SYMBOL`], returning a pointer to a static [`ffi::LibraryDecl`]: ABI
 //! version, wire-type layout fingerprint and framework version first, then the library's name, a logger
 //! installer and its plugins, each a [`ffi::PluginDecl`] with slot kind, name, summary, default TOML
-//! config and the slot's function table. The odometry, descriptor, coarse and fine registration slots
-//! cross; the C header `include/skid_plugin.h` declares the same types for plugins written in C or C++.
+//! config and the slot's function table. The source, odometry, descriptor, coarse and fine registration
+//! slots cross; the C header `include/skid_plugin.h` declares the same types for plugins written in C or
+//! C++.
 //! Only `#[repr(C)]` data and `extern "C"` function pointers cross; every exported function catches
 //! panics; config crosses as UTF-8 TOML that the plugin parses itself; clouds cross as borrowed point
 //! buffers; results and error messages go into host-allocated structs and buffers, and what a plugin
 //! lends back (a prepared cloud, a keyframe) stays its own until it is freed or the next call.
 //!
-//! - Plugin side (always compiled, light): implement [`OdometryPlugin`], [`DescriptorPlugin`],
-//!   [`CoarsePlugin`] or [`FinePlugin`] in safe Rust and call [`export_plugins!`] (or
+//! - Plugin side (always compiled, light): implement [`SourcePlugin`], [`OdometryPlugin`],
+//!   [`DescriptorPlugin`], [`CoarsePlugin`] or [`FinePlugin`] in safe Rust and call [`export_plugins!`] (or
 //!   [`export_descriptor!`] for one descriptor). Use [`parse_config`] for `deny_unknown_fields` configs
 //!   with key paths.
 //! - Host side (feature `host`): [`load_library`] opens and checks a library; each of its
@@ -33,7 +34,7 @@ pub mod transform;
 pub use ffi::AbiTransform;
 pub use plugin::{
     CoarseOutcome, CoarsePlugin, ConfigError, DescriptorPlugin, FineOutcome, FinePlugin, InstanceContext,
-    OdometryOutcome, OdometryPlugin, ScanView, parse_config,
+    OdometryOutcome, OdometryPlugin, OwnedScan, ScanView, SourcePlugin, parse_config,
 };
 
 #[cfg(feature = "host")]

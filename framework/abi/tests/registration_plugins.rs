@@ -1,4 +1,5 @@
-//! Registration plugins across the C ABI: the C++ example (`point_to_plane_icp`, built by
+//! Plugins of every slot that crosses the C ABI: the Rust examples' KITTI source and KISS-ICP odometry
+//! against their built-ins, and registration: the C++ example (`point_to_plane_icp`, built by
 //! skid-example-cpp's build script) and the Rust example (`gicp_cdylib`) pass the fine slot's
 //! conformance suite when loaded, the Rust one gives the built-in GICP's result on a real scan pair, and
 //! a C fixture compiled here with the system C compiler shows that what a plugin returns is checked: a
@@ -68,7 +69,10 @@ fn gicp_through_the_abi_conforms_and_equals_the_built_in_on_a_real_pair() {
     let mut registry = Registry::new();
     let example = load_library(library("skid-example-cdylib")).unwrap();
     let names: Vec<&str> = example.plugins().iter().map(|plugin| plugin.name()).collect();
-    assert_eq!(names, ["kiss_icp_cdylib", "ring_histogram", "gicp_cdylib"]);
+    assert_eq!(
+        names,
+        ["kitti_cdylib", "kiss_icp_cdylib", "ring_histogram", "gicp_cdylib"]
+    );
     example.register(&mut registry).unwrap();
     skid_fine_gicp::register(&mut registry).unwrap();
     let mut loaded = fine(&registry, "gicp_cdylib", "");
@@ -183,6 +187,45 @@ fn kiss_icp_through_the_abi_conforms_and_follows_the_built_in_on_kitti() {
         keyframes >= 2,
         "KITTI's first 16 frames drive about 13 m: {keyframes} keyframes"
     );
+}
+
+#[test]
+fn the_kitti_source_through_the_abi_conforms_and_reads_what_the_built_in_reads() {
+    let mut registry = Registry::new();
+    load_library(library("skid-example-cdylib"))
+        .unwrap()
+        .register(&mut registry)
+        .unwrap();
+    skid_source_files::register(&mut registry).unwrap();
+    let context = PluginContext::default();
+    let make = |name: &str| {
+        registry
+            .source
+            .create(name, &Params::default(), &context)
+            .unwrap()
+    };
+    let mut loaded = make("kitti_cdylib");
+    assert_eq!(loaded.remaining_hint(), Some(16));
+    assert!(!loaded.provides_imu());
+    assert_eq!(skid_testkit::source::check_source(loaded.as_mut(), 100), 16);
+
+    let (mut built_in, mut loaded) = (make("kitti"), make("kitti_cdylib"));
+    while let Some(expected) = built_in.next_scan().unwrap() {
+        let scan = loaded
+            .next_scan()
+            .unwrap()
+            .expect("as many scans as the built-in");
+        assert_eq!(
+            (scan.sequence, scan.stamp_nanos),
+            (expected.sequence, expected.stamp_nanos)
+        );
+        assert_eq!(scan.points, expected.points);
+        assert_eq!(
+            scan.ground_truth_world_from_sensor.is_some(),
+            expected.ground_truth_world_from_sensor.is_some()
+        );
+    }
+    assert!(loaded.next_scan().unwrap().is_none(), "and no more");
 }
 
 #[test]

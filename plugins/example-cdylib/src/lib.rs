@@ -6,16 +6,17 @@
 //! change when the sensor turns about its vertical axis, so the descriptor is invariant to yaw; it
 //! keeps no angular information at all, which makes it cheap and coarse.
 //!
-//! It also provides `gicp_cdylib` (module [`gicp`]) and `kiss_icp_cdylib` (module [`kiss`]), the built-in
-//! GICP fine registration and KISS-ICP odometry behind the C ABI, so that one library shows three slots
-//! of Rust plugin and the boundary's cost can be measured against the same code built in.
+//! It also provides `kitti_cdylib` (module [`kitti`]), `kiss_icp_cdylib` (module [`kiss`]) and
+//! `gicp_cdylib` (module [`gicp`]): the built-in KITTI source, KISS-ICP odometry and GICP fine
+//! registration behind the C ABI, so that one library shows four slots of Rust plugin and the boundary's
+//! cost can be measured against the same code built in.
 //!
-//! The crate contains no `unsafe` code: it implements [`skid_abi::DescriptorPlugin`] and
-//! [`skid_abi::FinePlugin`] and [`skid_abi::OdometryPlugin`], and lets [`skid_abi::export_plugins!`]
-//! generate the C side.
+//! The crate contains no `unsafe` code: it implements the slot traits of [`skid_abi`] and lets
+//! [`skid_abi::export_plugins!`] generate the C side.
 
 pub mod gicp;
 pub mod kiss;
+pub mod kitti;
 
 use serde::Deserialize;
 use skid_abi::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
@@ -171,6 +172,7 @@ impl DescriptorPlugin for RingHistogram {
 }
 
 skid_abi::export_plugins!(
+    source: kitti::KittiCdylib,
     odometry: kiss::KissIcpCdylib,
     descriptor: RingHistogram,
     fine: gicp::GicpCdylib,

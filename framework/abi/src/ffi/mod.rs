@@ -10,14 +10,16 @@
 //! a foreign plugin is an error the host can report rather than undefined behaviour; [`Checked`] names
 //! the function type inside once the host has checked it.
 
-mod odometry;
+mod frontend;
 mod registration;
 
 use std::ffi::c_void;
 
 use skid_msgs::Point;
 
-pub use odometry::{AbiScan, OdometryResult, OdometryVTable, RegisterFn};
+pub use frontend::{
+    AbiScan, NextScanFn, OdometryResult, OdometryVTable, RegisterFn, SourceInfo, SourceInfoFn, SourceVTable,
+};
 pub use registration::{
     AbiCloud, AbiTransform, AlignFn, CoarseResult, CoarseVTable, DestroyPreparedFn, FineResult, FineVTable,
     PrepareFn, PreparedPointsFn, RefineFn, TextBuf,
@@ -124,6 +126,7 @@ pub struct HostContext {
 pub struct SlotKind(pub u32);
 
 impl SlotKind {
+    /// The table is a [`SourceVTable`].
     pub const SOURCE: SlotKind = SlotKind(1);
     /// The table is an [`OdometryVTable`].
     pub const ODOMETRY: SlotKind = SlotKind(2);
@@ -197,8 +200,8 @@ pub struct PluginDecl {
     pub summary: AbiStr,
     /// The default parameters as TOML text.
     pub default_config: AbiStr,
-    /// Points to the slot's function table: an [`OdometryVTable`], [`DescriptorVTable`], [`CoarseVTable`]
-    /// or [`FineVTable`] as [`slot_kind`](Self::slot_kind) says.
+    /// Points to the slot's function table: a [`SourceVTable`], [`OdometryVTable`], [`DescriptorVTable`],
+    /// [`CoarseVTable`] or [`FineVTable`] as [`slot_kind`](Self::slot_kind) says.
     pub slot_table: *const c_void,
 }
 

@@ -13,8 +13,8 @@ use skid_core::{Params, Slot};
 use super::{AbiError, logging};
 use crate::ffi::{
     AbiStr, AlignFn, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable,
-    DestroyFn, DestroyPreparedFn, FineVTable, LibraryDecl, OdometryVTable, PluginDecl, PrepareFn,
-    PreparedPointsFn, RefineFn, RegisterFn, SlotKind, Status,
+    DestroyFn, DestroyPreparedFn, FineVTable, LibraryDecl, NextScanFn, OdometryVTable, PluginDecl, PrepareFn,
+    PreparedPointsFn, RefineFn, RegisterFn, SlotKind, SourceInfoFn, SourceVTable, Status,
 };
 use crate::{ABI_VERSION, ENTRY_SYMBOL, FRAMEWORK_VERSION};
 
@@ -60,6 +60,7 @@ impl PluginSpec {
     /// The slot the plugin fills.
     pub(crate) fn slot(&self) -> Slot {
         match self.table {
+            SlotTable::Source(_) => Slot::Source,
             SlotTable::Odometry(_) => Slot::Odometry,
             SlotTable::Descriptor(_) => Slot::Descriptor,
             SlotTable::Coarse(_) => Slot::Coarse,
@@ -71,10 +72,20 @@ impl PluginSpec {
 /// A plugin's function table, every pointer checked non-null.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum SlotTable {
+    Source(SourceFns),
     Odometry(OdometryFns),
     Descriptor(DescriptorFns),
     Coarse(CoarseFns),
     Fine(FineFns),
+}
+
+/// The source function table.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SourceFns {
+    pub(crate) create: Checked<CreateFn>,
+    pub(crate) info: Checked<SourceInfoFn>,
+    pub(crate) next_scan: Checked<NextScanFn>,
+    pub(crate) destroy: Checked<DestroyFn>,
 }
 
 /// The odometry function table.
@@ -278,6 +289,22 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
         .map_err(|error| format!("`{name}`: the default config is not TOML: {error}"))?;
     let null_entry = |slot: &str| format!("`{name}`: the {slot} function table has a null entry");
     let table = match decl.slot_kind {
+        SlotKind::SOURCE => {
+            // SAFETY: for this kind the table is a static `SourceVTable` (null is checked).
+            let table = unsafe { decl.slot_table.cast::<SourceVTable>().as_ref() }
+                .ok_or_else(|| format!("`{name}`: the source function table is null"))?;
+            let (Some(create), Some(info), Some(next_scan), Some(destroy)) =
+                (table.create, table.info, table.next_scan, table.destroy)
+            else {
+                return Err(null_entry("source").into());
+            };
+            SlotTable::Source(SourceFns {
+                create,
+                info,
+                next_scan,
+                destroy,
+            })
+        }
         SlotKind::ODOMETRY => {
             // SAFETY: for this kind the table is a static `OdometryVTable` (null is checked).
             let table = unsafe { decl.slot_table.cast::<OdometryVTable>().as_ref() }

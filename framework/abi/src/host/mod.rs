@@ -12,6 +12,7 @@ mod library;
 mod logging;
 mod odometry;
 mod registration;
+mod source;
 
 use std::path::{Path, PathBuf};
 
@@ -22,6 +23,7 @@ pub use index::ExactL2Index;
 pub use logging::PLUGIN_TARGET;
 pub use odometry::DynOdometry;
 pub use registration::{DynCoarse, DynFine};
+pub use source::DynSource;
 
 use library::{Library, PluginSpec, SlotTable};
 
@@ -67,7 +69,7 @@ pub enum AbiError {
     },
 
     /// The plugin fills a slot this host cannot load dynamically yet.
-    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: odometry, descriptor, coarse, fine)", path.display())]
+    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: source, odometry, descriptor, coarse, fine)", path.display())]
     UnsupportedSlot { path: PathBuf, name: String, kind: u32 },
 
     /// The declaration is broken: a null pointer, a non-UTF-8 string, an unparsable default config.
@@ -177,6 +179,7 @@ impl LoadedPlugin {
     pub fn register(&self, registry: &mut Registry) -> Result<(), AbiError> {
         let plugin = self.plugin;
         let result = match plugin.table {
+            SlotTable::Source(fns) => registry.source.register(source::entry(plugin, fns)),
             SlotTable::Odometry(fns) => registry.odometry.register(odometry::entry(plugin, fns)),
             SlotTable::Descriptor(fns) => registry.descriptor.register(descriptor::entry(plugin, fns)),
             SlotTable::Coarse(fns) => registry.coarse.register(registration::coarse_entry(plugin, fns)),
@@ -191,6 +194,7 @@ impl LoadedPlugin {
     /// Checks parameters by building an instance and destroying it again.
     pub fn validate(&self, params: &Params) -> Result<(), ParamError> {
         let (create, destroy) = match self.plugin.table {
+            SlotTable::Source(fns) => (fns.create, fns.destroy),
             SlotTable::Odometry(fns) => (fns.create, fns.destroy),
             SlotTable::Descriptor(fns) => (fns.create, fns.destroy),
             SlotTable::Coarse(fns) => (fns.create, fns.destroy),
@@ -208,6 +212,18 @@ impl LoadedPlugin {
     ) -> Option<Result<DynDescriptor, PluginError>> {
         match self.plugin.table {
             SlotTable::Descriptor(fns) => Some(DynDescriptor::create(self.plugin, fns, params, context)),
+            _ => None,
+        }
+    }
+
+    /// A source instance built from `params`; `None` when the plugin is not one.
+    pub fn create_source(
+        &self,
+        params: &Params,
+        context: &skid_core::PluginContext,
+    ) -> Option<Result<DynSource, PluginError>> {
+        match self.plugin.table {
+            SlotTable::Source(fns) => Some(DynSource::create(self.plugin, fns, params, context)),
             _ => None,
         }
     }

@@ -54,6 +54,7 @@ mod logger;
 mod odometry;
 mod panic_hook;
 mod registration;
+mod source;
 
 use std::fmt;
 
@@ -63,6 +64,7 @@ pub use descriptor::{DescriptorPlugin, descriptor_vtable};
 pub use glue::{LibraryName, library_decl, plugin_decl};
 pub use odometry::{OdometryOutcome, OdometryPlugin, ScanView, odometry_vtable};
 pub use registration::{CoarseOutcome, CoarsePlugin, FineOutcome, FinePlugin, coarse_vtable, fine_vtable};
+pub use source::{OwnedScan, SourcePlugin, source_vtable};
 
 /// What the host tells a new instance about where it runs (skid-core's `PluginContext`, as it crosses).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -153,8 +155,8 @@ pub fn parse_config<C: DeserializeOwned>(text: &str) -> Result<C, ConfigError> {
     })
 }
 
-/// Exports this library's plugins: one `slot: Type` pair per plugin, where the slot is `odometry` (an
-/// [`OdometryPlugin`]), `descriptor` (a [`DescriptorPlugin`]), `coarse` (a [`CoarsePlugin`]) or `fine`
+/// Exports this library's plugins: one `slot: Type` pair per plugin, where the slot is `source` (a
+/// [`SourcePlugin`]), `odometry` (an [`OdometryPlugin`]), `descriptor` (a [`DescriptorPlugin`]), `coarse` (a [`CoarsePlugin`]) or `fine`
 /// (a [`FinePlugin`]). Generates the
 /// function tables, the static declarations and the `skid_plugin_entry` symbol. Use it once per library:
 ///
@@ -173,6 +175,16 @@ macro_rules! export_plugins {
             <$plugin as $crate::DescriptorPlugin>::NAME,
             <$plugin as $crate::DescriptorPlugin>::SUMMARY,
             <$plugin as $crate::DescriptorPlugin>::DEFAULT_CONFIG,
+            &TABLE,
+        )
+    }};
+    (@decl source $plugin:ty) => {{
+        static TABLE: $crate::ffi::SourceVTable = $crate::plugin::source_vtable::<$plugin>();
+        $crate::plugin::plugin_decl(
+            $crate::ffi::SlotKind::SOURCE,
+            <$plugin as $crate::SourcePlugin>::NAME,
+            <$plugin as $crate::SourcePlugin>::SUMMARY,
+            <$plugin as $crate::SourcePlugin>::DEFAULT_CONFIG,
             &TABLE,
         )
     }};

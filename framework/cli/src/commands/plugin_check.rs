@@ -17,6 +17,7 @@ use skid_core::{Params, PluginContext, Slot};
 use skid_testkit::descriptor::{DescriptorExpectations, check_descriptor};
 use skid_testkit::odometry::{OdometryExpectations, check_odometry};
 use skid_testkit::registration::{RegistrationExpectations, coarse_checks, fine_checks};
+use skid_testkit::source::check_source;
 
 /// The bar a fine registration must clear: the built-in GICP's (1 m and 10° off, back within 5 cm and 0.5°).
 const FINE_PERTURBATION_M: f64 = 1.0;
@@ -33,6 +34,9 @@ const COARSE_EXPECT: RegistrationExpectations = RegistrationExpectations {
     max_translation_error_m: 0.5,
     max_rotation_error_deg: 2.0,
 };
+
+/// How many scans of a source the check reads at most.
+const SOURCE_MAX_SCANS: usize = 200;
 
 /// One check's outcome.
 struct Outcome {
@@ -128,6 +132,16 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
                 .into_iter()
                 .map(|(check, body)| run_check(check, || body(&mut coarse)))
                 .collect(),
+            Some(Err(error)) => not_created(name, error),
+            None => Vec::new(),
+        },
+        Slot::Source => match plugin.create_source(&defaults, &context) {
+            Some(Ok(mut source)) => vec![run_check(
+                "scans in order, stamps non-decreasing, finite points, a clean end",
+                || {
+                    check_source(&mut source, SOURCE_MAX_SCANS);
+                },
+            )],
             Some(Err(error)) => not_created(name, error),
             None => Vec::new(),
         },

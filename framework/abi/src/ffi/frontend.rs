@@ -1,13 +1,13 @@
-//! The odometry slot's function table and the values it exchanges: a scan lent to the plugin (raw
-//! points with time offsets and rings, the IMU samples since the previous scan, optional ground truth
-//! and LiDAR-to-IMU extrinsic) and the update it writes back, with a keyframe cloud the plugin lends to
-//! the host until its next call.
+//! The front-end slots' function tables and the values they exchange. A scan (raw points with time
+//! offsets and rings, the IMU samples since the previous scan, optional ground truth and LiDAR-to-IMU
+//! extrinsic) is lent by the host to an odometry, or by a source to the host until its next call; an
+//! odometry writes back its update, with a keyframe cloud it lends to the host until its next call.
 
 use skid_msgs::{ImuSample, Point, RawPoint};
 
 use super::{AbiTransform, CreateFn, DestroyFn, ErrorBuf, Handle, Status};
 
-/// One scan, borrowed for the duration of a `register` call.
+/// One scan: lent for the duration of a `register` call, or by a source until its next call.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct AbiScan {
@@ -68,5 +68,41 @@ pub type RegisterFn = Option<
 pub struct OdometryVTable {
     pub create: CreateFn,
     pub register: RegisterFn,
+    pub destroy: DestroyFn,
+}
+
+/// Facts about a source the host asks once, after creating it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SourceInfo {
+    /// Non-zero when the scans carry IMU samples.
+    pub provides_imu: u32,
+    /// Non-zero when `remaining_scans` holds how many scans remain.
+    pub knows_remaining: u32,
+    pub remaining_scans: u64,
+}
+
+/// The next scan of a source: on success `out_has_scan` says whether there was one (zero at the end of
+/// the sequence) and `out_scan` describes it, its buffers lent until the next call on the instance.
+pub type NextScanFn = Option<
+    unsafe extern "C" fn(
+        handle: Handle,
+        out_scan: *mut AbiScan,
+        out_has_scan: *mut u32,
+        error: *mut ErrorBuf,
+    ) -> Status,
+>;
+
+/// Fills a [`SourceInfo`].
+pub type SourceInfoFn =
+    Option<unsafe extern "C" fn(handle: Handle, out: *mut SourceInfo, error: *mut ErrorBuf) -> Status>;
+
+/// The source slot's function table ([`SlotKind::SOURCE`](super::SlotKind::SOURCE)).
+#[repr(C)]
+#[derive(Debug)]
+pub struct SourceVTable {
+    pub create: CreateFn,
+    pub info: SourceInfoFn,
+    pub next_scan: NextScanFn,
     pub destroy: DestroyFn,
 }
