@@ -8,8 +8,8 @@
 
 use skid_abi::transform::{abi_from_pose, pose_from_abi};
 use skid_abi::{AbiTransform, ConfigError, FineOutcome, FinePlugin, InstanceContext, parse_config};
+use skid_core::CloudView;
 use skid_core::slots::{FineRegistration, PreparedCloud};
-use skid_core::{CloudView, PluginContext, RobotId};
 use skid_fine_gicp::{GicpConfig, GicpRegistration};
 use skid_msgs::Point;
 
@@ -49,14 +49,7 @@ impl FinePlugin for GicpCdylib {
 
     fn from_config(config: &str, context: &InstanceContext) -> Result<Self, ConfigError> {
         let config: GicpConfig = parse_config(config)?;
-        let context = PluginContext {
-            robot: RobotId(context.robot),
-            fleet_size: context.fleet_size,
-            threads: context.threads,
-            seed: context.seed,
-            output_dir: context.output_dir.as_ref().map(Into::into),
-            source_provides_imu: false,
-        };
+        let context = crate::plugin_context(context);
         let inner =
             GicpRegistration::new(config, &context).map_err(|error| ConfigError::from(error.to_string()))?;
         Ok(Self { inner })

@@ -5,7 +5,7 @@
 use skid_abi::transform::{abi_from_pose, pose_from_abi};
 use skid_abi::{ConfigError, InstanceContext, OdometryOutcome, OdometryPlugin, ScanView, parse_config};
 use skid_core::slots::Odometry;
-use skid_core::{PluginContext, RobotId, Scan};
+use skid_core::{RobotId, Scan};
 use skid_odometry_kiss::{KissIcpConfig, KissIcpOdometry};
 
 /// The built-in KISS-ICP's defaults as TOML; a unit test keeps them equal to `KissIcpConfig::default()`.
@@ -23,14 +23,7 @@ impl OdometryPlugin for KissIcpCdylib {
 
     fn from_config(config: &str, context: &InstanceContext) -> Result<Self, ConfigError> {
         let config: KissIcpConfig = parse_config(config)?;
-        let context = PluginContext {
-            robot: RobotId(context.robot),
-            fleet_size: context.fleet_size,
-            threads: context.threads,
-            seed: context.seed,
-            output_dir: context.output_dir.as_ref().map(Into::into),
-            source_provides_imu: false,
-        };
+        let context = crate::plugin_context(context);
         let inner =
             KissIcpOdometry::new(config, &context).map_err(|error| ConfigError::from(error.to_string()))?;
         Ok(Self { inner })

@@ -4,7 +4,6 @@
 use skid_abi::transform::abi_from_pose;
 use skid_abi::{ConfigError, InstanceContext, OwnedScan, SourcePlugin, parse_config};
 use skid_core::slots::Source;
-use skid_core::{PluginContext, RobotId};
 use skid_source_files::{KittiConfig, KittiSource};
 
 /// The built-in source's defaults as TOML; a unit test keeps them equal to `KittiConfig::default()`.
@@ -23,14 +22,7 @@ impl SourcePlugin for KittiCdylib {
 
     fn from_config(config: &str, context: &InstanceContext) -> Result<Self, ConfigError> {
         let config: KittiConfig = parse_config(config)?;
-        let context = PluginContext {
-            robot: RobotId(context.robot),
-            fleet_size: context.fleet_size,
-            threads: context.threads,
-            seed: context.seed,
-            output_dir: context.output_dir.as_ref().map(Into::into),
-            source_provides_imu: false,
-        };
+        let context = crate::plugin_context(context);
         let inner =
             KittiSource::open(config, &context).map_err(|error| ConfigError::from(error.to_string()))?;
         Ok(Self { inner })

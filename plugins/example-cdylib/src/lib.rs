@@ -20,7 +20,20 @@ pub mod kitti;
 
 use serde::Deserialize;
 use skid_abi::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
+use skid_core::{PluginContext, RobotId};
 use skid_msgs::Point;
+
+/// The built-in plugins' context for the instance context a wrapped built-in is created with.
+pub(crate) fn plugin_context(context: &InstanceContext) -> PluginContext {
+    PluginContext {
+        robot: RobotId(context.robot),
+        fleet_size: context.fleet_size,
+        threads: context.threads,
+        seed: context.seed,
+        output_dir: context.output_dir.as_ref().map(Into::into),
+        source_provides_imu: false,
+    }
+}
 
 /// Parameters of the ring histogram. Unknown keys are refused; missing keys take these defaults.
 #[derive(Clone, Debug, Deserialize, PartialEq)]

@@ -1,102 +1,56 @@
 //! A dynamic descriptor plugin seen through skid-core's [`Descriptor`] trait, and its registry entry.
 
-use std::ffi::c_void;
-use std::ptr::NonNull;
-
 use skid_core::slots::{Descriptor, DescriptorBuf, DescriptorIndex};
 use skid_core::{CloudView, Params, PluginContext, PluginEntry, PluginError, PluginResult};
 
-use super::call::{CallError, ErrorSlot, create_instance, destroy_instance, validate_params};
+use super::call::{CallError, ErrorSlot};
 use super::index::ExactL2Index;
+use super::instance::{Instance, registry_entry};
 use super::library::{DescriptorFns, PluginSpec};
 use crate::ffi::Status;
 
 /// The registry entry of a loaded descriptor plugin.
 pub(super) fn entry(plugin: &'static PluginSpec, fns: DescriptorFns) -> PluginEntry<dyn Descriptor> {
-    PluginEntry::from_parts(
-        &plugin.name,
-        &plugin.summary,
-        &plugin.path.display().to_string(),
-        plugin.defaults.clone(),
-        move |params: &Params| validate_params(plugin, fns.create, fns.destroy, params),
-        move |params: &Params, context: &PluginContext| {
-            DynDescriptor::create(plugin, fns, params, context)
-                .map(|descriptor| Box::new(descriptor) as Box<dyn Descriptor>)
-        },
-    )
+    registry_entry(plugin, fns.create, fns.destroy, move |params, context| {
+        DynDescriptor::create(plugin, fns, params, context)
+            .map(|descriptor| Box::new(descriptor) as Box<dyn Descriptor>)
+    })
 }
 
 /// An instance of a dynamically loaded descriptor plugin.
 ///
 /// After the plugin panics in a call, the instance refuses further calls (its state may be broken);
 /// create a fresh one.
+#[derive(Debug)]
 pub struct DynDescriptor {
-    handle: NonNull<c_void>,
-    library: &'static PluginSpec,
+    instance: Instance,
     fns: DescriptorFns,
-    poisoned: bool,
-}
-
-// SAFETY: the plugin type behind the handle is `Send` (required by `DescriptorPlugin`), the library's
-// function table is immutable static data, and `&mut self` serialises every call on one instance.
-unsafe impl Send for DynDescriptor {}
-
-impl std::fmt::Debug for DynDescriptor {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("DynDescriptor")
-            .field("plugin", &self.library.name)
-            .field("poisoned", &self.poisoned)
-            .finish()
-    }
 }
 
 impl DynDescriptor {
     /// Creates an instance from parameters.
     pub(super) fn create(
-        library: &'static PluginSpec,
+        plugin: &'static PluginSpec,
         fns: DescriptorFns,
         params: &Params,
         context: &PluginContext,
     ) -> PluginResult<Self> {
-        let handle = create_instance(library, fns.create, params, context)
-            .map_err(|error| error.into_plugin_error(&library.name))?;
-        Ok(Self {
-            handle,
-            library,
-            fns,
-            poisoned: false,
-        })
+        let instance = Instance::create(plugin, fns.create, fns.destroy, params, context)?;
+        Ok(Self { instance, fns })
     }
 
     /// The descriptor length this instance produces.
     pub fn descriptor_len(&mut self) -> PluginResult<usize> {
-        self.check_poison()?;
+        self.instance.check_poison()?;
         let mut len = 0_usize;
         let mut error = ErrorSlot::new();
         // SAFETY: a live handle of this library and host-owned outputs valid for the call.
-        let status = unsafe { (self.fns.descriptor_len)(self.handle.as_ptr(), &mut len, error.as_mut_ptr()) };
-        self.finish(error.result(status)).map(|()| len)
-    }
-
-    fn check_poison(&self) -> PluginResult<()> {
-        if self.poisoned {
-            return Err(PluginError::failed(
-                &self.library.name,
-                "this instance panicked in an earlier call and is unusable; create a new one",
-            ));
-        }
-        Ok(())
-    }
-
-    /// Maps a call's outcome, poisoning the instance on a panic.
-    fn finish(&mut self, result: Result<(), CallError>) -> PluginResult<()> {
-        result.map_err(|error| self.fail(error))
-    }
-
-    /// The error for a failed call, poisoning the instance on a panic.
-    fn fail(&mut self, error: CallError) -> PluginError {
-        self.poisoned |= error.status == Status::PANICKED;
-        error.into_plugin_error(&self.library.name)
+        let status =
+            unsafe { (self.fns.descriptor_len)(self.instance.handle.as_ptr(), &mut len, error.as_mut_ptr()) };
+        error
+            .result(status)
+            .map_err(|error| self.instance.fail(error))
+            .map(|()| len)
     }
 
     /// One `describe` call into `values`: the length written, or the length needed when the buffer was
@@ -113,7 +67,7 @@ impl DynDescriptor {
         // call and `values` is writable for its length.
         let status = unsafe {
             (self.fns.describe)(
-                self.handle.as_ptr(),
+                self.instance.handle.as_ptr(),
                 points.as_ptr(),
                 points.len(),
                 values.as_mut_ptr(),
@@ -137,7 +91,7 @@ impl DynDescriptor {
 
 impl Descriptor for DynDescriptor {
     fn kind(&self) -> &str {
-        &self.library.name
+        &self.instance.plugin.name
     }
 
     fn describe(&mut self, cloud: CloudView<'_>) -> PluginResult<DescriptorBuf> {
@@ -153,26 +107,20 @@ impl Descriptor for DynDescriptor {
             Ok(Ok(written)) => written,
             Ok(Err(needed)) => {
                 return Err(PluginError::failed(
-                    &self.library.name,
+                    &self.instance.plugin.name,
                     format!("describe keeps asking for a larger buffer ({needed} values)"),
                 ));
             }
-            Err(error) => return Err(self.fail(error)),
+            Err(error) => return Err(self.instance.fail(error)),
         };
         values.truncate(written);
         Ok(DescriptorBuf {
-            kind: self.library.name.clone(),
+            kind: self.instance.plugin.name.clone(),
             values,
         })
     }
 
     fn new_index(&self) -> Box<dyn DescriptorIndex> {
-        Box::new(ExactL2Index::new(&self.library.name))
-    }
-}
-
-impl Drop for DynDescriptor {
-    fn drop(&mut self) {
-        destroy_instance(self.library, self.fns.destroy, self.handle);
+        Box::new(ExactL2Index::new(&self.instance.plugin.name))
     }
 }

@@ -8,6 +8,7 @@
 mod call;
 mod descriptor;
 mod index;
+mod instance;
 mod library;
 mod logging;
 mod odometry;

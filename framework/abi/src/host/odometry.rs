@@ -4,46 +4,30 @@
 //! checking that it is no larger than the scan and that both poses are rigid motions. Keyframe ids are
 //! the host's: the robot and a per-instance counter, as the built-in odometries number them.
 
-use std::ffi::c_void;
-use std::ptr::NonNull;
-
 use skid_core::slots::{Odometry, OdometryUpdate};
 use skid_core::{
     Cloud, Keyframe, KeyframeId, Params, PluginContext, PluginEntry, PluginError, PluginResult, Scan,
 };
 
-use super::call::{CallError, ErrorSlot, create_instance, destroy_instance, validate_params};
+use super::call::ErrorSlot;
+use super::instance::{Instance, registry_entry};
 use super::library::{OdometryFns, PluginSpec};
-use crate::ffi::{AbiScan, AbiTransform, OdometryResult, Status};
+use crate::ffi::{AbiScan, AbiTransform, OdometryResult};
 use crate::transform::{abi_from_pose, pose_from_abi};
 
 /// The registry entry of a loaded odometry plugin.
 pub(super) fn entry(plugin: &'static PluginSpec, fns: OdometryFns) -> PluginEntry<dyn Odometry> {
-    PluginEntry::from_parts(
-        &plugin.name,
-        &plugin.summary,
-        &plugin.path.display().to_string(),
-        plugin.defaults.clone(),
-        move |params: &Params| validate_params(plugin, fns.create, fns.destroy, params),
-        move |params: &Params, context: &PluginContext| {
-            DynOdometry::create(plugin, fns, params, context)
-                .map(|odometry| Box::new(odometry) as Box<dyn Odometry>)
-        },
-    )
+    registry_entry(plugin, fns.create, fns.destroy, move |params, context| {
+        DynOdometry::create(plugin, fns, params, context).map(|plugin| Box::new(plugin) as Box<dyn Odometry>)
+    })
 }
 
 /// An instance of a dynamically loaded odometry plugin. After a panic it refuses further calls.
 pub struct DynOdometry {
-    handle: NonNull<c_void>,
-    plugin: &'static PluginSpec,
+    instance: Instance,
     fns: OdometryFns,
     keyframes: u32,
-    poisoned: bool,
 }
-
-// SAFETY: the plugin type behind the handle is `Send` (required by `OdometryPlugin` and the header's
-// contract), the function table is immutable static data, and `&mut self` serialises every call.
-unsafe impl Send for DynOdometry {}
 
 impl DynOdometry {
     pub(super) fn create(
@@ -52,35 +36,22 @@ impl DynOdometry {
         params: &Params,
         context: &PluginContext,
     ) -> PluginResult<Self> {
-        let handle = create_instance(plugin, fns.create, params, context)
-            .map_err(|error| error.into_plugin_error(&plugin.name))?;
+        let instance = Instance::create(plugin, fns.create, fns.destroy, params, context)?;
         Ok(Self {
-            handle,
-            plugin,
+            instance,
             fns,
             keyframes: 0,
-            poisoned: false,
         })
     }
 
-    fn fail(&mut self, error: CallError) -> PluginError {
-        self.poisoned |= error.status == Status::PANICKED;
-        error.into_plugin_error(&self.plugin.name)
-    }
-
     fn bad_output(&self, message: String) -> PluginError {
-        PluginError::failed(&self.plugin.name, format!("register: {message}"))
+        self.instance.bad_output(format!("register: {message}"))
     }
 }
 
 impl Odometry for DynOdometry {
     fn register(&mut self, scan: &Scan) -> PluginResult<OdometryUpdate> {
-        if self.poisoned {
-            return Err(PluginError::failed(
-                &self.plugin.name,
-                "this instance panicked in an earlier call and is unusable; create a new one",
-            ));
-        }
+        self.instance.check_poison()?;
         let lent = AbiScan {
             robot: scan.robot.0,
             sequence: scan.sequence,
@@ -112,9 +83,10 @@ impl Odometry for DynOdometry {
         let mut error = ErrorSlot::new();
         // SAFETY: a live handle of this plugin; the scan's buffers and the output are host data valid for
         // the call.
-        let status =
-            unsafe { (self.fns.register)(self.handle.as_ptr(), &lent, &mut out, error.as_mut_ptr()) };
-        error.result(status).map_err(|error| self.fail(error))?;
+        let status = unsafe {
+            (self.fns.register)(self.instance.handle.as_ptr(), &lent, &mut out, error.as_mut_ptr())
+        };
+        error.result(status).map_err(|error| self.instance.fail(error))?;
         let world_from_sensor =
             pose_from_abi(&out.world_from_sensor).map_err(|reason| self.bad_output(reason))?;
         let previous_from_current =
@@ -154,11 +126,5 @@ impl Odometry for DynOdometry {
             previous_from_current,
             keyframe,
         })
-    }
-}
-
-impl Drop for DynOdometry {
-    fn drop(&mut self) {
-        destroy_instance(self.plugin, self.fns.destroy, self.handle);
     }
 }

@@ -14,10 +14,11 @@ use skid_core::{
     Cloud, CloudView, Information, Params, PluginContext, PluginEntry, PluginError, PluginResult, Pose,
 };
 
-use super::call::{CallError, ErrorSlot, create_instance, destroy_instance, validate_params};
+use super::call::ErrorSlot;
+use super::instance::{Instance, registry_entry};
 use super::library::{CoarseFns, FineFns, PluginSpec};
 use crate::ffi::{
-    AbiCloud, AbiTransform, Checked, CoarseResult, DestroyPreparedFn, FineResult, Handle, Status, TextBuf,
+    AbiCloud, AbiTransform, Checked, CoarseResult, DestroyPreparedFn, FineResult, Handle, TextBuf,
 };
 use crate::transform::{abi_from_pose, pose_from_abi};
 
@@ -32,67 +33,22 @@ fn abi_cloud(cloud: CloudView<'_>) -> AbiCloud {
     }
 }
 
-/// What an instance of either slot shares: the handle, the plugin, and poisoning after a panic.
-struct Instance {
-    handle: NonNull<c_void>,
-    plugin: &'static PluginSpec,
-    poisoned: bool,
-}
-
-impl Instance {
-    fn check_poison(&self) -> PluginResult<()> {
-        if self.poisoned {
-            return Err(PluginError::failed(
-                &self.plugin.name,
-                "this instance panicked in an earlier call and is unusable; create a new one",
-            ));
-        }
-        Ok(())
-    }
-
-    /// The error for a failed call, poisoning the instance on a panic.
-    fn fail(&mut self, error: CallError) -> PluginError {
-        self.poisoned |= error.status == Status::PANICKED;
-        error.into_plugin_error(&self.plugin.name)
-    }
-
-    /// An error about what the plugin returned.
-    fn bad_output(&self, message: String) -> PluginError {
-        PluginError::failed(&self.plugin.name, message)
-    }
-}
-
 /// The registry entry of a loaded coarse registration plugin.
 pub(super) fn coarse_entry(
     plugin: &'static PluginSpec,
     fns: CoarseFns,
 ) -> PluginEntry<dyn CoarseRegistration> {
-    PluginEntry::from_parts(
-        &plugin.name,
-        &plugin.summary,
-        &plugin.path.display().to_string(),
-        plugin.defaults.clone(),
-        move |params: &Params| validate_params(plugin, fns.create, fns.destroy, params),
-        move |params: &Params, context: &PluginContext| {
-            DynCoarse::create(plugin, fns, params, context)
-                .map(|coarse| Box::new(coarse) as Box<dyn CoarseRegistration>)
-        },
-    )
+    registry_entry(plugin, fns.create, fns.destroy, move |params, context| {
+        DynCoarse::create(plugin, fns, params, context)
+            .map(|coarse| Box::new(coarse) as Box<dyn CoarseRegistration>)
+    })
 }
 
 /// The registry entry of a loaded fine registration plugin.
 pub(super) fn fine_entry(plugin: &'static PluginSpec, fns: FineFns) -> PluginEntry<dyn FineRegistration> {
-    PluginEntry::from_parts(
-        &plugin.name,
-        &plugin.summary,
-        &plugin.path.display().to_string(),
-        plugin.defaults.clone(),
-        move |params: &Params| validate_params(plugin, fns.create, fns.destroy, params),
-        move |params: &Params, context: &PluginContext| {
-            DynFine::create(plugin, fns, params, context)
-                .map(|fine| Box::new(fine) as Box<dyn FineRegistration>)
-        },
-    )
+    registry_entry(plugin, fns.create, fns.destroy, move |params, context| {
+        DynFine::create(plugin, fns, params, context).map(|fine| Box::new(fine) as Box<dyn FineRegistration>)
+    })
 }
 
 /// An instance of a dynamically loaded coarse registration plugin.
@@ -101,10 +57,6 @@ pub struct DynCoarse {
     fns: CoarseFns,
 }
 
-// SAFETY: the plugin type behind the handle is `Send` (required by `CoarsePlugin`, and by the C header's
-// contract), the function table is immutable static data, and `&mut self` serialises every call.
-unsafe impl Send for DynCoarse {}
-
 impl DynCoarse {
     pub(super) fn create(
         plugin: &'static PluginSpec,
@@ -112,16 +64,8 @@ impl DynCoarse {
         params: &Params,
         context: &PluginContext,
     ) -> PluginResult<Self> {
-        let handle = create_instance(plugin, fns.create, params, context)
-            .map_err(|error| error.into_plugin_error(&plugin.name))?;
-        Ok(Self {
-            instance: Instance {
-                handle,
-                plugin,
-                poisoned: false,
-            },
-            fns,
-        })
+        let instance = Instance::create(plugin, fns.create, fns.destroy, params, context)?;
+        Ok(Self { instance, fns })
     }
 }
 
@@ -168,12 +112,6 @@ impl CoarseRegistration for DynCoarse {
     }
 }
 
-impl Drop for DynCoarse {
-    fn drop(&mut self) {
-        destroy_instance(self.instance.plugin, self.fns.destroy, self.instance.handle);
-    }
-}
-
 /// A prepared cloud owned by a dynamic fine registration plugin; freed through the plugin when the
 /// last holder drops it.
 struct DynPrepared {
@@ -205,9 +143,6 @@ pub struct DynFine {
     fns: FineFns,
 }
 
-// SAFETY: as for `DynCoarse`.
-unsafe impl Send for DynFine {}
-
 impl DynFine {
     pub(super) fn create(
         plugin: &'static PluginSpec,
@@ -215,16 +150,8 @@ impl DynFine {
         params: &Params,
         context: &PluginContext,
     ) -> PluginResult<Self> {
-        let handle = create_instance(plugin, fns.create, params, context)
-            .map_err(|error| error.into_plugin_error(&plugin.name))?;
-        Ok(Self {
-            instance: Instance {
-                handle,
-                plugin,
-                poisoned: false,
-            },
-            fns,
-        })
+        let instance = Instance::create(plugin, fns.create, fns.destroy, params, context)?;
+        Ok(Self { instance, fns })
     }
 
     /// The plugin's prepared cloud behind `prepared`, refusing one another plugin made.
@@ -368,11 +295,5 @@ impl FineRegistration for DynFine {
             error: out.error,
             failure,
         })
-    }
-}
-
-impl Drop for DynFine {
-    fn drop(&mut self) {
-        destroy_instance(self.instance.plugin, self.fns.destroy, self.instance.handle);
     }
 }

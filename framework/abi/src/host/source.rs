@@ -4,15 +4,13 @@
 //! length would otherwise read far past the plugin's buffer), rigid transforms, and sequence numbers
 //! that count up from 0.
 
-use std::ffi::c_void;
-use std::ptr::NonNull;
-
 use skid_core::slots::Source;
 use skid_core::{Params, PluginContext, PluginEntry, PluginError, PluginResult, RobotId, Scan};
 
-use super::call::{CallError, ErrorSlot, create_instance, destroy_instance, validate_params};
+use super::call::ErrorSlot;
+use super::instance::{Instance, registry_entry};
 use super::library::{PluginSpec, SourceFns};
-use crate::ffi::{AbiScan, AbiTransform, SourceInfo, Status};
+use crate::ffi::{AbiScan, AbiTransform, SourceInfo};
 use crate::transform::pose_from_abi;
 
 /// More points than any LiDAR sweep has (a 128-beam sensor gives about 300 000); a larger count is a lie.
@@ -22,32 +20,19 @@ const MAX_SCAN_IMU_SAMPLES: usize = 1_000_000;
 
 /// The registry entry of a loaded source plugin.
 pub(super) fn entry(plugin: &'static PluginSpec, fns: SourceFns) -> PluginEntry<dyn Source> {
-    PluginEntry::from_parts(
-        &plugin.name,
-        &plugin.summary,
-        &plugin.path.display().to_string(),
-        plugin.defaults.clone(),
-        move |params: &Params| validate_params(plugin, fns.create, fns.destroy, params),
-        move |params: &Params, context: &PluginContext| {
-            DynSource::create(plugin, fns, params, context).map(|source| Box::new(source) as Box<dyn Source>)
-        },
-    )
+    registry_entry(plugin, fns.create, fns.destroy, move |params, context| {
+        DynSource::create(plugin, fns, params, context).map(|plugin| Box::new(plugin) as Box<dyn Source>)
+    })
 }
 
 /// An instance of a dynamically loaded source plugin. After a panic it refuses further calls.
 pub struct DynSource {
-    handle: NonNull<c_void>,
-    plugin: &'static PluginSpec,
+    instance: Instance,
     fns: SourceFns,
     info: SourceInfo,
     robot: RobotId,
     next_sequence: u32,
-    poisoned: bool,
 }
-
-// SAFETY: the plugin type behind the handle is `Send` (required by `SourcePlugin` and the header's
-// contract), the function table is immutable static data, and `&mut self` serialises every call.
-unsafe impl Send for DynSource {}
 
 impl DynSource {
     pub(super) fn create(
@@ -56,33 +41,26 @@ impl DynSource {
         params: &Params,
         context: &PluginContext,
     ) -> PluginResult<Self> {
-        let handle = create_instance(plugin, fns.create, params, context)
-            .map_err(|error| error.into_plugin_error(&plugin.name))?;
         let mut source = Self {
-            handle,
-            plugin,
+            instance: Instance::create(plugin, fns.create, fns.destroy, params, context)?,
             fns,
             info: SourceInfo::default(),
             robot: context.robot,
             next_sequence: 0,
-            poisoned: false,
         };
         let mut info = SourceInfo::default();
         let mut error = ErrorSlot::new();
         // SAFETY: a live handle of this plugin and a host-owned output.
-        let status = unsafe { (fns.info)(handle.as_ptr(), &mut info, error.as_mut_ptr()) };
-        error.result(status).map_err(|error| source.fail(error))?;
+        let status = unsafe { (fns.info)(source.instance.handle.as_ptr(), &mut info, error.as_mut_ptr()) };
+        error
+            .result(status)
+            .map_err(|error| source.instance.fail(error))?;
         source.info = info;
         Ok(source)
     }
 
-    fn fail(&mut self, error: CallError) -> PluginError {
-        self.poisoned |= error.status == Status::PANICKED;
-        error.into_plugin_error(&self.plugin.name)
-    }
-
     fn bad_output(&self, message: String) -> PluginError {
-        PluginError::failed(&self.plugin.name, format!("next_scan: {message}"))
+        self.instance.bad_output(format!("next_scan: {message}"))
     }
 
     /// Copies a lent scan after checking it.
@@ -142,12 +120,7 @@ unsafe fn copy_lent<T: Copy>(pointer: *const T, count: usize) -> Vec<T> {
 
 impl Source for DynSource {
     fn next_scan(&mut self) -> PluginResult<Option<Scan>> {
-        if self.poisoned {
-            return Err(PluginError::failed(
-                &self.plugin.name,
-                "this instance panicked in an earlier call and is unusable; create a new one",
-            ));
-        }
+        self.instance.check_poison()?;
         let mut lent = AbiScan {
             robot: 0,
             sequence: 0,
@@ -165,9 +138,14 @@ impl Source for DynSource {
         let mut error = ErrorSlot::new();
         // SAFETY: a live handle of this plugin and host-owned outputs valid for the call.
         let status = unsafe {
-            (self.fns.next_scan)(self.handle.as_ptr(), &mut lent, &mut has_scan, error.as_mut_ptr())
+            (self.fns.next_scan)(
+                self.instance.handle.as_ptr(),
+                &mut lent,
+                &mut has_scan,
+                error.as_mut_ptr(),
+            )
         };
-        error.result(status).map_err(|error| self.fail(error))?;
+        error.result(status).map_err(|error| self.instance.fail(error))?;
         if has_scan == 0 {
             return Ok(None);
         }
@@ -183,11 +161,5 @@ impl Source for DynSource {
     fn remaining_hint(&self) -> Option<usize> {
         (self.info.knows_remaining != 0)
             .then(|| usize::try_from(self.info.remaining_scans).unwrap_or(usize::MAX))
-    }
-}
-
-impl Drop for DynSource {
-    fn drop(&mut self) {
-        destroy_instance(self.plugin, self.fns.destroy, self.handle);
     }
 }

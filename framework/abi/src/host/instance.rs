@@ -1,0 +1,99 @@
+//! What every slot's wrapper shares: the plugin instance behind a handle (created and destroyed through
+//! the plugin, refusing calls after a panic), and the registry entry that builds wrappers.
+
+use std::ffi::c_void;
+use std::ptr::NonNull;
+
+use skid_core::{Params, PluginContext, PluginEntry, PluginError, PluginResult};
+
+use super::call::{CallError, create_instance, destroy_instance, validate_params};
+use super::library::PluginSpec;
+use crate::ffi::{Checked, CreateFn, DestroyFn, Status};
+
+/// The registry entry of a loaded plugin: parameters are validated by creating and destroying an
+/// instance, and `build` makes the slot's wrapper.
+pub(super) fn registry_entry<T: ?Sized + 'static>(
+    plugin: &'static PluginSpec,
+    create: Checked<CreateFn>,
+    destroy: Checked<DestroyFn>,
+    build: impl Fn(&Params, &PluginContext) -> PluginResult<Box<T>> + Send + Sync + 'static,
+) -> PluginEntry<T> {
+    PluginEntry::from_parts(
+        &plugin.name,
+        &plugin.summary,
+        &plugin.path.display().to_string(),
+        plugin.defaults.clone(),
+        move |params: &Params| validate_params(plugin, create, destroy, params),
+        build,
+    )
+}
+
+/// A plugin instance: its handle, its plugin, and whether it panicked (after which its state may be
+/// broken, so it refuses further calls). Destroyed through the plugin when dropped.
+pub(super) struct Instance {
+    pub(super) handle: NonNull<c_void>,
+    pub(super) plugin: &'static PluginSpec,
+    destroy: Checked<DestroyFn>,
+    poisoned: bool,
+}
+
+// SAFETY: the plugin type behind the handle is `Send` (required by every slot trait of the plugin side
+// and by the C header's contract), and the wrappers serialise calls on one instance with `&mut self`.
+unsafe impl Send for Instance {}
+
+impl std::fmt::Debug for Instance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Instance")
+            .field("plugin", &self.plugin.name)
+            .field("poisoned", &self.poisoned)
+            .finish()
+    }
+}
+
+impl Instance {
+    /// Creates an instance through the plugin's `create`.
+    pub(super) fn create(
+        plugin: &'static PluginSpec,
+        create: Checked<CreateFn>,
+        destroy: Checked<DestroyFn>,
+        params: &Params,
+        context: &PluginContext,
+    ) -> PluginResult<Self> {
+        let handle = create_instance(plugin, create, params, context)
+            .map_err(|error| error.into_plugin_error(&plugin.name))?;
+        Ok(Self {
+            handle,
+            plugin,
+            destroy,
+            poisoned: false,
+        })
+    }
+
+    /// An error when an earlier call panicked.
+    pub(super) fn check_poison(&self) -> PluginResult<()> {
+        if self.poisoned {
+            return Err(PluginError::failed(
+                &self.plugin.name,
+                "this instance panicked in an earlier call and is unusable; create a new one",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The error for a failed call, poisoning the instance on a panic.
+    pub(super) fn fail(&mut self, error: CallError) -> PluginError {
+        self.poisoned |= error.status == Status::PANICKED;
+        error.into_plugin_error(&self.plugin.name)
+    }
+
+    /// An error about what the plugin returned.
+    pub(super) fn bad_output(&self, message: String) -> PluginError {
+        PluginError::failed(&self.plugin.name, message)
+    }
+}
+
+impl Drop for Instance {
+    fn drop(&mut self) {
+        destroy_instance(self.plugin, self.destroy, self.handle);
+    }
+}
