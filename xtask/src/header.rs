@@ -11,8 +11,9 @@ use anyhow::{Context, Result, bail};
 use skid_abi::ffi::level;
 
 /// The declarations a plugin needs; cbindgen adds every type they use.
-const ROOTS: [&str; 10] = [
+const ROOTS: [&str; 11] = [
     "LibraryDecl",
+    "VerifierVTable",
     "SourceVTable",
     "OdometryVTable",
     "PluginDecl",
@@ -31,10 +32,11 @@ const EXCLUDED: [&str; 5] = ["ERROR", "WARN", "INFO", "DEBUG", "TRACE"];
 pub const HEADER_PATH: &str = "framework/abi/include/skid_plugin.h";
 
 /// The sources that declare what crosses the boundary.
-const SOURCES: [&str; 4] = [
+const SOURCES: [&str; 5] = [
     "framework/abi/src/ffi/mod.rs",
     "framework/abi/src/ffi/frontend.rs",
     "framework/abi/src/ffi/registration.rs",
+    "framework/abi/src/ffi/verifier.rs",
     "framework/msgs/src/points.rs",
 ];
 

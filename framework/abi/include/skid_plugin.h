@@ -111,6 +111,9 @@ typedef uint32_t SkidSlotKind;
  * The table is a [`FineVTable`].
  */
 #define SkidSlotKind_FINE 5
+/**
+ * The table is a [`VerifierVTable`].
+ */
 #define SkidSlotKind_VERIFIER 6
 #define SkidSlotKind_BACKEND 7
 #define SkidSlotKind_TRANSPORT 8
@@ -141,7 +144,7 @@ typedef struct SkidPluginDecl {
   struct SkidAbiStr default_config;
   /**
    * Points to the slot's function table: a [`SourceVTable`], [`OdometryVTable`], [`DescriptorVTable`],
-   * [`CoarseVTable`] or [`FineVTable`] as [`slot_kind`](Self::slot_kind) says.
+   * [`CoarseVTable`], [`FineVTable`] or [`VerifierVTable`] as [`slot_kind`](Self::slot_kind) says.
    */
   const void *slot_table;
 } SkidPluginDecl;
@@ -242,6 +245,150 @@ typedef SkidStatus (*SkidCreateFn)(struct SkidAbiStr config,
                                    struct SkidErrorBuf *error);
 
 /**
+ * A keyframe: the robot and its per-robot index.
+ */
+typedef struct SkidAbiKeyframeId {
+  uint32_t robot;
+  uint32_t index;
+} SkidAbiKeyframeId;
+
+/**
+ * A rigid transform as a row-major 4×4 matrix: rotation in the upper-left 3×3 block, translation in
+ * metres in the last column, and `0 0 0 1` in the last row.
+ */
+typedef struct SkidAbiTransform {
+  double matrix[16];
+} SkidAbiTransform;
+/**
+ * The identity transform.
+ */
+#define SkidAbiTransform_IDENTITY (SkidAbiTransform){ .matrix = { 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, } }
+
+/**
+ * A loop closure between two keyframes.
+ */
+typedef struct SkidAbiLoop {
+  uint64_t id;
+  struct SkidAbiKeyframeId target;
+  struct SkidAbiKeyframeId source;
+  struct SkidAbiTransform target_from_source;
+  /**
+   * The 6×6 information matrix, row-major, translation first.
+   */
+  double information[36];
+} SkidAbiLoop;
+
+/**
+ * A 3D point with intensity, in metres, 16-byte aligned so four of them fill a cache line exactly.
+ */
+typedef struct SKID_ALIGNED(16) SkidPoint {
+  float x;
+  float y;
+  float z;
+  float intensity;
+} SkidPoint;
+
+/**
+ * A borrowed point cloud: `count` points at `points`, valid for the duration of one call (or, from
+ * `prepared_points`, for the prepared cloud's life).
+ */
+typedef struct SkidAbiCloud {
+  const struct SkidPoint *points;
+  size_t count;
+} SkidAbiCloud;
+
+/**
+ * The current estimate of a keyframe's pose; returns non-zero and fills `out` when the keyframe is known.
+ */
+typedef uint32_t (*SkidGraphPoseFn)(const void *context,
+                                    struct SkidAbiKeyframeId id,
+                                    struct SkidAbiTransform *out);
+
+/**
+ * A relative pose with its 6×6 covariance (row-major, translation first).
+ */
+typedef struct SkidAbiRelativePose {
+  struct SkidAbiTransform target_from_source;
+  double covariance[36];
+} SkidAbiRelativePose;
+
+/**
+ * The odometry-only relative pose between two keyframes of one robot; returns non-zero and fills `out`
+ * when both are known and belong to the same robot.
+ */
+typedef uint32_t (*SkidGraphOdometryFn)(const void *context,
+                                        struct SkidAbiKeyframeId target,
+                                        struct SkidAbiKeyframeId source,
+                                        struct SkidAbiRelativePose *out);
+
+/**
+ * Read access to the host's pose graph, valid for the duration of one `submit` call.
+ */
+typedef struct SkidAbiGraph {
+  /**
+   * Passed back to the callbacks; opaque to the plugin.
+   */
+  const void *context;
+  SkidGraphPoseFn pose;
+  SkidGraphOdometryFn odometry_between;
+  /**
+   * Every keyframe in the graph.
+   */
+  const struct SkidAbiKeyframeId *keyframes;
+  size_t keyframe_count;
+  /**
+   * Every loop closure currently in the graph.
+   */
+  const struct SkidAbiLoop *loops;
+  size_t loop_count;
+} SkidAbiGraph;
+
+/**
+ * A rejected loop and why.
+ */
+typedef struct SkidAbiRejection {
+  uint64_t id;
+  struct SkidAbiStr reason;
+} SkidAbiRejection;
+
+/**
+ * A verdict, lent by the plugin until its next call on the instance.
+ */
+typedef struct SkidAbiVerdict {
+  const uint64_t *accepted;
+  size_t accepted_count;
+  const uint64_t *retracted;
+  size_t retracted_count;
+  const struct SkidAbiRejection *rejected;
+  size_t rejected_count;
+} SkidAbiVerdict;
+
+/**
+ * Submits a loop candidate (with its target and source clouds in their sensor frames) for verification.
+ */
+typedef SkidStatus (*SkidSubmitFn)(SkidHandle handle,
+                                   const struct SkidAbiLoop *candidate,
+                                   struct SkidAbiCloud target_cloud,
+                                   struct SkidAbiCloud source_cloud,
+                                   const struct SkidAbiGraph *graph,
+                                   struct SkidAbiVerdict *out,
+                                   struct SkidErrorBuf *error);
+
+/**
+ * Drops an instance; the handle is invalid afterwards whatever the status.
+ */
+typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
+
+/**
+ * The verifier slot's function table ([`SlotKind::VERIFIER`](super::SlotKind::VERIFIER)).
+ */
+typedef struct SkidVerifierVTable {
+  SkidCreateFn create;
+  SkidSubmitFn submit;
+  SkidDestroyFn destroy;
+} SkidVerifierVTable;
+
+/**
  * Facts about a source the host asks once, after creating it.
  */
 typedef struct SkidSourceInfo {
@@ -300,18 +447,6 @@ typedef struct SkidImuSample {
 } SkidImuSample;
 
 /**
- * A rigid transform as a row-major 4×4 matrix: rotation in the upper-left 3×3 block, translation in
- * metres in the last column, and `0 0 0 1` in the last row.
- */
-typedef struct SkidAbiTransform {
-  double matrix[16];
-} SkidAbiTransform;
-/**
- * The identity transform.
- */
-#define SkidAbiTransform_IDENTITY (SkidAbiTransform){ .matrix = { 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, } }
-
-/**
  * One scan: lent for the duration of a `register` call, or by a source until its next call.
  */
 typedef struct SkidAbiScan {
@@ -359,11 +494,6 @@ typedef SkidStatus (*SkidNextScanFn)(SkidHandle handle,
                                      struct SkidErrorBuf *error);
 
 /**
- * Drops an instance; the handle is invalid afterwards whatever the status.
- */
-typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
-
-/**
  * The source slot's function table ([`SlotKind::SOURCE`](super::SlotKind::SOURCE)).
  */
 typedef struct SkidSourceVTable {
@@ -372,16 +502,6 @@ typedef struct SkidSourceVTable {
   SkidNextScanFn next_scan;
   SkidDestroyFn destroy;
 } SkidSourceVTable;
-
-/**
- * A 3D point with intensity, in metres, 16-byte aligned so four of them fill a cache line exactly.
- */
-typedef struct SKID_ALIGNED(16) SkidPoint {
-  float x;
-  float y;
-  float z;
-  float intensity;
-} SkidPoint;
 
 /**
  * What `register` writes: the pose, the motion since the previous scan, and a keyframe when the
@@ -459,15 +579,6 @@ typedef struct SkidDescriptorVTable {
   SkidDescribeFn describe;
   SkidDestroyFn destroy;
 } SkidDescriptorVTable;
-
-/**
- * A borrowed point cloud: `count` points at `points`, valid for the duration of one call (or, from
- * `prepared_points`, for the prepared cloud's life).
- */
-typedef struct SkidAbiCloud {
-  const struct SkidPoint *points;
-  size_t count;
-} SkidAbiCloud;
 
 /**
  * What a coarse `align` writes (skid-core's `CoarseAlignment`). Booleans are `u32`, non-zero for true.

@@ -1,5 +1,5 @@
-//! Plugins of every slot that crosses the C ABI: the Rust examples' KITTI source and KISS-ICP odometry
-//! against their built-ins, and registration: the C++ example (`point_to_plane_icp`, built by
+//! Plugins of every slot that crosses the C ABI: the Rust examples' KITTI source, KISS-ICP odometry and
+//! PCM verifier against their built-ins or suites, and registration: the C++ example (`point_to_plane_icp`, built by
 //! skid-example-cpp's build script) and the Rust example (`gicp_cdylib`) pass the fine slot's
 //! conformance suite when loaded, the Rust one gives the built-in GICP's result on a real scan pair, and
 //! a C fixture compiled here with the system C compiler shows that what a plugin returns is checked: a
@@ -71,7 +71,13 @@ fn gicp_through_the_abi_conforms_and_equals_the_built_in_on_a_real_pair() {
     let names: Vec<&str> = example.plugins().iter().map(|plugin| plugin.name()).collect();
     assert_eq!(
         names,
-        ["kitti_cdylib", "kiss_icp_cdylib", "ring_histogram", "gicp_cdylib"]
+        [
+            "kitti_cdylib",
+            "kiss_icp_cdylib",
+            "ring_histogram",
+            "gicp_cdylib",
+            "pcm_cdylib"
+        ]
     );
     example.register(&mut registry).unwrap();
     skid_fine_gicp::register(&mut registry).unwrap();
@@ -226,6 +232,21 @@ fn the_kitti_source_through_the_abi_conforms_and_reads_what_the_built_in_reads()
         );
     }
     assert!(loaded.next_scan().unwrap().is_none(), "and no more");
+}
+
+#[test]
+fn pcm_through_the_abi_passes_the_verifier_suite() {
+    let mut registry = Registry::new();
+    load_library(library("skid-example-cdylib"))
+        .unwrap()
+        .register(&mut registry)
+        .unwrap();
+    let mut verifier = registry
+        .verifier
+        .create("pcm_cdylib", &Params::default(), &PluginContext::default())
+        .unwrap();
+    // The suite submits consistent loops and one that is not, through a graph the host lends by callback.
+    skid_testkit::verifier::check_verifier(verifier.as_mut());
 }
 
 #[test]

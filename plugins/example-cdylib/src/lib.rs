@@ -6,10 +6,10 @@
 //! change when the sensor turns about its vertical axis, so the descriptor is invariant to yaw; it
 //! keeps no angular information at all, which makes it cheap and coarse.
 //!
-//! It also provides `kitti_cdylib` (module [`kitti`]), `kiss_icp_cdylib` (module [`kiss`]) and
-//! `gicp_cdylib` (module [`gicp`]): the built-in KITTI source, KISS-ICP odometry and GICP fine
-//! registration behind the C ABI, so that one library shows four slots of Rust plugin and the boundary's
-//! cost can be measured against the same code built in.
+//! It also provides `kitti_cdylib` (module [`kitti`]), `kiss_icp_cdylib` (module [`kiss`]),
+//! `gicp_cdylib` (module [`gicp`]) and `pcm_cdylib` (module [`pcm`]): the built-in KITTI source, KISS-ICP
+//! odometry, GICP fine registration and PCM verifier behind the C ABI, so that one library shows five
+//! slots of Rust plugin and the boundary's cost can be measured against the same code built in.
 //!
 //! The crate contains no `unsafe` code: it implements the slot traits of [`skid_abi`] and lets
 //! [`skid_abi::export_plugins!`] generate the C side.
@@ -17,6 +17,7 @@
 pub mod gicp;
 pub mod kiss;
 pub mod kitti;
+pub mod pcm;
 
 use serde::Deserialize;
 use skid_abi::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
@@ -189,6 +190,7 @@ skid_abi::export_plugins!(
     odometry: kiss::KissIcpCdylib,
     descriptor: RingHistogram,
     fine: gicp::GicpCdylib,
+    verifier: pcm::PcmCdylib,
 );
 
 #[cfg(test)]

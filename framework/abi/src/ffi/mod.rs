@@ -12,6 +12,7 @@
 
 mod frontend;
 mod registration;
+mod verifier;
 
 use std::ffi::c_void;
 
@@ -23,6 +24,10 @@ pub use frontend::{
 pub use registration::{
     AbiCloud, AbiTransform, AlignFn, CoarseResult, CoarseVTable, DestroyPreparedFn, FineResult, FineVTable,
     PrepareFn, PreparedPointsFn, RefineFn, TextBuf,
+};
+pub use verifier::{
+    AbiGraph, AbiKeyframeId, AbiLoop, AbiRejection, AbiRelativePose, AbiVerdict, GraphOdometryFn,
+    GraphPoseFn, SubmitFn, VerifierVTable,
 };
 
 /// A borrowed UTF-8 string: pointer and length in bytes, not NUL-terminated.
@@ -136,6 +141,7 @@ impl SlotKind {
     pub const COARSE: SlotKind = SlotKind(4);
     /// The table is a [`FineVTable`].
     pub const FINE: SlotKind = SlotKind(5);
+    /// The table is a [`VerifierVTable`].
     pub const VERIFIER: SlotKind = SlotKind(6);
     pub const BACKEND: SlotKind = SlotKind(7);
     pub const TRANSPORT: SlotKind = SlotKind(8);
@@ -201,7 +207,7 @@ pub struct PluginDecl {
     /// The default parameters as TOML text.
     pub default_config: AbiStr,
     /// Points to the slot's function table: a [`SourceVTable`], [`OdometryVTable`], [`DescriptorVTable`],
-    /// [`CoarseVTable`] or [`FineVTable`] as [`slot_kind`](Self::slot_kind) says.
+    /// [`CoarseVTable`], [`FineVTable`] or [`VerifierVTable`] as [`slot_kind`](Self::slot_kind) says.
     pub slot_table: *const c_void,
 }
 

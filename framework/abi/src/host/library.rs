@@ -14,7 +14,8 @@ use super::{AbiError, logging};
 use crate::ffi::{
     AbiStr, AlignFn, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable,
     DestroyFn, DestroyPreparedFn, FineVTable, LibraryDecl, NextScanFn, OdometryVTable, PluginDecl, PrepareFn,
-    PreparedPointsFn, RefineFn, RegisterFn, SlotKind, SourceInfoFn, SourceVTable, Status,
+    PreparedPointsFn, RefineFn, RegisterFn, SlotKind, SourceInfoFn, SourceVTable, Status, SubmitFn,
+    VerifierVTable,
 };
 use crate::{ABI_VERSION, ENTRY_SYMBOL, FRAMEWORK_VERSION};
 
@@ -61,6 +62,7 @@ impl PluginSpec {
     pub(crate) fn slot(&self) -> Slot {
         match self.table {
             SlotTable::Source(_) => Slot::Source,
+            SlotTable::Verifier(_) => Slot::Verifier,
             SlotTable::Odometry(_) => Slot::Odometry,
             SlotTable::Descriptor(_) => Slot::Descriptor,
             SlotTable::Coarse(_) => Slot::Coarse,
@@ -73,10 +75,19 @@ impl PluginSpec {
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum SlotTable {
     Source(SourceFns),
+    Verifier(VerifierFns),
     Odometry(OdometryFns),
     Descriptor(DescriptorFns),
     Coarse(CoarseFns),
     Fine(FineFns),
+}
+
+/// The verifier function table.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct VerifierFns {
+    pub(crate) create: Checked<CreateFn>,
+    pub(crate) submit: Checked<SubmitFn>,
+    pub(crate) destroy: Checked<DestroyFn>,
 }
 
 /// The source function table.
@@ -289,6 +300,20 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
         .map_err(|error| format!("`{name}`: the default config is not TOML: {error}"))?;
     let null_entry = |slot: &str| format!("`{name}`: the {slot} function table has a null entry");
     let table = match decl.slot_kind {
+        SlotKind::VERIFIER => {
+            // SAFETY: for this kind the table is a static `VerifierVTable` (null is checked).
+            let table = unsafe { decl.slot_table.cast::<VerifierVTable>().as_ref() }
+                .ok_or_else(|| format!("`{name}`: the verifier function table is null"))?;
+            let (Some(create), Some(submit), Some(destroy)) = (table.create, table.submit, table.destroy)
+            else {
+                return Err(null_entry("verifier").into());
+            };
+            SlotTable::Verifier(VerifierFns {
+                create,
+                submit,
+                destroy,
+            })
+        }
         SlotKind::SOURCE => {
             // SAFETY: for this kind the table is a static `SourceVTable` (null is checked).
             let table = unsafe { decl.slot_table.cast::<SourceVTable>().as_ref() }

@@ -14,6 +14,7 @@ mod logging;
 mod odometry;
 mod registration;
 mod source;
+mod verifier;
 
 use std::path::{Path, PathBuf};
 
@@ -25,6 +26,7 @@ pub use logging::PLUGIN_TARGET;
 pub use odometry::DynOdometry;
 pub use registration::{DynCoarse, DynFine};
 pub use source::DynSource;
+pub use verifier::DynVerifier;
 
 use library::{Library, PluginSpec, SlotTable};
 
@@ -70,7 +72,7 @@ pub enum AbiError {
     },
 
     /// The plugin fills a slot this host cannot load dynamically yet.
-    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: source, odometry, descriptor, coarse, fine)", path.display())]
+    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: source, odometry, descriptor, coarse, fine, verifier)", path.display())]
     UnsupportedSlot { path: PathBuf, name: String, kind: u32 },
 
     /// The declaration is broken: a null pointer, a non-UTF-8 string, an unparsable default config.
@@ -180,6 +182,7 @@ impl LoadedPlugin {
     pub fn register(&self, registry: &mut Registry) -> Result<(), AbiError> {
         let plugin = self.plugin;
         let result = match plugin.table {
+            SlotTable::Verifier(fns) => registry.verifier.register(verifier::entry(plugin, fns)),
             SlotTable::Source(fns) => registry.source.register(source::entry(plugin, fns)),
             SlotTable::Odometry(fns) => registry.odometry.register(odometry::entry(plugin, fns)),
             SlotTable::Descriptor(fns) => registry.descriptor.register(descriptor::entry(plugin, fns)),
@@ -195,6 +198,7 @@ impl LoadedPlugin {
     /// Checks parameters by building an instance and destroying it again.
     pub fn validate(&self, params: &Params) -> Result<(), ParamError> {
         let (create, destroy) = match self.plugin.table {
+            SlotTable::Verifier(fns) => (fns.create, fns.destroy),
             SlotTable::Source(fns) => (fns.create, fns.destroy),
             SlotTable::Odometry(fns) => (fns.create, fns.destroy),
             SlotTable::Descriptor(fns) => (fns.create, fns.destroy),
@@ -213,6 +217,18 @@ impl LoadedPlugin {
     ) -> Option<Result<DynDescriptor, PluginError>> {
         match self.plugin.table {
             SlotTable::Descriptor(fns) => Some(DynDescriptor::create(self.plugin, fns, params, context)),
+            _ => None,
+        }
+    }
+
+    /// A verifier instance built from `params`; `None` when the plugin is not one.
+    pub fn create_verifier(
+        &self,
+        params: &Params,
+        context: &skid_core::PluginContext,
+    ) -> Option<Result<DynVerifier, PluginError>> {
+        match self.plugin.table {
+            SlotTable::Verifier(fns) => Some(DynVerifier::create(self.plugin, fns, params, context)),
             _ => None,
         }
     }

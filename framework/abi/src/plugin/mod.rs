@@ -55,6 +55,7 @@ mod odometry;
 mod panic_hook;
 mod registration;
 mod source;
+mod verifier;
 
 use std::fmt;
 
@@ -65,6 +66,7 @@ pub use glue::{LibraryName, library_decl, plugin_decl};
 pub use odometry::{OdometryOutcome, OdometryPlugin, ScanView, odometry_vtable};
 pub use registration::{CoarseOutcome, CoarsePlugin, FineOutcome, FinePlugin, coarse_vtable, fine_vtable};
 pub use source::{OwnedScan, SourcePlugin, source_vtable};
+pub use verifier::{GraphAccess, VerdictOutcome, VerifierPlugin, verifier_vtable};
 
 /// What the host tells a new instance about where it runs (skid-core's `PluginContext`, as it crosses).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -156,9 +158,10 @@ pub fn parse_config<C: DeserializeOwned>(text: &str) -> Result<C, ConfigError> {
 }
 
 /// Exports this library's plugins: one `slot: Type` pair per plugin, where the slot is `source` (a
-/// [`SourcePlugin`]), `odometry` (an [`OdometryPlugin`]), `descriptor` (a [`DescriptorPlugin`]), `coarse` (a [`CoarsePlugin`]) or `fine`
-/// (a [`FinePlugin`]). Generates the
-/// function tables, the static declarations and the `skid_plugin_entry` symbol. Use it once per library:
+/// [`SourcePlugin`]), `odometry` (an [`OdometryPlugin`]), `descriptor` (a [`DescriptorPlugin`]),
+/// `coarse` (a [`CoarsePlugin`]), `fine` (a [`FinePlugin`]) or `verifier` (a [`VerifierPlugin`]).
+/// Generates the function tables, the static declarations and the `skid_plugin_entry` symbol. Use it
+/// once per library:
 ///
 /// ```ignore
 /// skid_abi::export_plugins!(descriptor: RingHistogram, fine: PointToPointIcp);
@@ -175,6 +178,16 @@ macro_rules! export_plugins {
             <$plugin as $crate::DescriptorPlugin>::NAME,
             <$plugin as $crate::DescriptorPlugin>::SUMMARY,
             <$plugin as $crate::DescriptorPlugin>::DEFAULT_CONFIG,
+            &TABLE,
+        )
+    }};
+    (@decl verifier $plugin:ty) => {{
+        static TABLE: $crate::ffi::VerifierVTable = $crate::plugin::verifier_vtable::<$plugin>();
+        $crate::plugin::plugin_decl(
+            $crate::ffi::SlotKind::VERIFIER,
+            <$plugin as $crate::VerifierPlugin>::NAME,
+            <$plugin as $crate::VerifierPlugin>::SUMMARY,
+            <$plugin as $crate::VerifierPlugin>::DEFAULT_CONFIG,
             &TABLE,
         )
     }};

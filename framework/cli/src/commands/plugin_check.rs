@@ -18,6 +18,7 @@ use skid_testkit::descriptor::{DescriptorExpectations, check_descriptor};
 use skid_testkit::odometry::{OdometryExpectations, check_odometry};
 use skid_testkit::registration::{RegistrationExpectations, coarse_checks, fine_checks};
 use skid_testkit::source::check_source;
+use skid_testkit::verifier::check_verifier;
 
 /// The bar a fine registration must clear: the built-in GICP's (1 m and 10° off, back within 5 cm and 0.5°).
 const FINE_PERTURBATION_M: f64 = 1.0;
@@ -132,6 +133,16 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
                 .into_iter()
                 .map(|(check, body)| run_check(check, || body(&mut coarse)))
                 .collect(),
+            Some(Err(error)) => not_created(name, error),
+            None => Vec::new(),
+        },
+        Slot::Verifier => match plugin.create_verifier(&defaults, &context) {
+            Some(Ok(mut verifier)) => vec![run_check(
+                "rejects an inconsistent loop among consistent ones",
+                || {
+                    check_verifier(&mut verifier);
+                },
+            )],
             Some(Err(error)) => not_created(name, error),
             None => Vec::new(),
         },
