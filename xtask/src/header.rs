@@ -11,8 +11,9 @@ use anyhow::{Context, Result, bail};
 use skid_abi::ffi::level;
 
 /// The declarations a plugin needs; cbindgen adds every type they use.
-const ROOTS: [&str; 11] = [
+const ROOTS: [&str; 12] = [
     "LibraryDecl",
+    "BackendVTable",
     "VerifierVTable",
     "SourceVTable",
     "OdometryVTable",
@@ -32,11 +33,12 @@ const EXCLUDED: [&str; 5] = ["ERROR", "WARN", "INFO", "DEBUG", "TRACE"];
 pub const HEADER_PATH: &str = "framework/abi/include/skid_plugin.h";
 
 /// The sources that declare what crosses the boundary.
-const SOURCES: [&str; 5] = [
+const SOURCES: [&str; 6] = [
     "framework/abi/src/ffi/mod.rs",
     "framework/abi/src/ffi/frontend.rs",
     "framework/abi/src/ffi/registration.rs",
     "framework/abi/src/ffi/verifier.rs",
+    "framework/abi/src/ffi/backend.rs",
     "framework/msgs/src/points.rs",
 ];
 

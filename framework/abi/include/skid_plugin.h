@@ -115,6 +115,9 @@ typedef uint32_t SkidSlotKind;
  * The table is a [`VerifierVTable`].
  */
 #define SkidSlotKind_VERIFIER 6
+/**
+ * The table is a [`BackendVTable`].
+ */
 #define SkidSlotKind_BACKEND 7
 #define SkidSlotKind_TRANSPORT 8
 
@@ -144,7 +147,8 @@ typedef struct SkidPluginDecl {
   struct SkidAbiStr default_config;
   /**
    * Points to the slot's function table: a [`SourceVTable`], [`OdometryVTable`], [`DescriptorVTable`],
-   * [`CoarseVTable`], [`FineVTable`] or [`VerifierVTable`] as [`slot_kind`](Self::slot_kind) says.
+   * [`CoarseVTable`], [`FineVTable`], [`VerifierVTable`] or [`BackendVTable`] as
+   * [`slot_kind`](Self::slot_kind) says.
    */
   const void *slot_table;
 } SkidPluginDecl;
@@ -265,6 +269,14 @@ typedef struct SkidAbiTransform {
 #define SkidAbiTransform_IDENTITY (SkidAbiTransform){ .matrix = { 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, } }
 
 /**
+ * Adds a keyframe with an initial pose guess; adding a known keyframe is an error.
+ */
+typedef SkidStatus (*SkidAddKeyframeFn)(SkidHandle handle,
+                                        struct SkidAbiKeyframeId id,
+                                        const struct SkidAbiTransform *world_from_sensor,
+                                        struct SkidErrorBuf *error);
+
+/**
  * A loop closure between two keyframes.
  */
 typedef struct SkidAbiLoop {
@@ -277,6 +289,104 @@ typedef struct SkidAbiLoop {
    */
   double information[36];
 } SkidAbiLoop;
+
+/**
+ * Adds an edge between two known keyframes: odometry (`is_loop` zero, the loop id unused) or an
+ * accepted loop closure.
+ */
+typedef SkidStatus (*SkidAddEdgeFn)(SkidHandle handle,
+                                    const struct SkidAbiLoop *edge,
+                                    uint32_t is_loop,
+                                    struct SkidErrorBuf *error);
+
+/**
+ * Removes a loop closure that was retracted; an unknown id is an error.
+ */
+typedef SkidStatus (*SkidRemoveLoopFn)(SkidHandle handle, uint64_t id, struct SkidErrorBuf *error);
+
+/**
+ * What one optimisation call did.
+ */
+typedef struct SkidAbiOptimizeReport {
+  uint64_t iterations;
+  double initial_cost;
+  double final_cost;
+  /**
+   * Non-zero when the optimisation converged.
+   */
+  uint32_t converged;
+  /**
+   * Explicit padding.
+   */
+  uint32_t reserved;
+} SkidAbiOptimizeReport;
+
+/**
+ * Optimises within `max_iterations` and `max_duration_s` seconds.
+ */
+typedef SkidStatus (*SkidOptimizeFn)(SkidHandle handle,
+                                     uint64_t max_iterations,
+                                     double max_duration_s,
+                                     struct SkidAbiOptimizeReport *out,
+                                     struct SkidErrorBuf *error);
+
+/**
+ * The current estimate of a keyframe's pose; `out_found` says whether the graph has it.
+ */
+typedef SkidStatus (*SkidBackendPoseFn)(SkidHandle handle,
+                                        struct SkidAbiKeyframeId id,
+                                        struct SkidAbiTransform *out,
+                                        uint32_t *out_found,
+                                        struct SkidErrorBuf *error);
+
+/**
+ * A relative pose with its 6×6 covariance (row-major, translation first).
+ */
+typedef struct SkidAbiRelativePose {
+  struct SkidAbiTransform target_from_source;
+  double covariance[36];
+} SkidAbiRelativePose;
+
+/**
+ * The odometry-only relative pose between two keyframes of one robot; `out_found` says whether both are
+ * known and belong to the same robot.
+ */
+typedef SkidStatus (*SkidBackendOdometryFn)(SkidHandle handle,
+                                            struct SkidAbiKeyframeId target,
+                                            struct SkidAbiKeyframeId source,
+                                            struct SkidAbiRelativePose *out,
+                                            uint32_t *out_found,
+                                            struct SkidErrorBuf *error);
+
+/**
+ * Every keyframe and every loop in the graph, lent until the next call on the instance.
+ */
+typedef SkidStatus (*SkidBackendListsFn)(SkidHandle handle,
+                                         const struct SkidAbiKeyframeId **out_keyframes,
+                                         size_t *out_keyframe_count,
+                                         const struct SkidAbiLoop **out_loops,
+                                         size_t *out_loop_count,
+                                         struct SkidErrorBuf *error);
+
+/**
+ * Drops an instance; the handle is invalid afterwards whatever the status.
+ */
+typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
+
+/**
+ * The back-end slot's function table ([`SlotKind::BACKEND`](super::SlotKind::BACKEND)).
+ */
+typedef struct SkidBackendVTable {
+  SkidCreateFn create;
+  SkidAddKeyframeFn add_keyframe;
+  SkidAddEdgeFn add_edge;
+  SkidRemoveLoopFn remove_loop;
+  SkidOptimizeFn optimize;
+  SkidBackendPoseFn pose;
+  SkidBackendOdometryFn odometry_between;
+  SkidBackendListsFn lists;
+  SkidDestroyFn destroy;
+} SkidBackendVTable;
 
 /**
  * A 3D point with intensity, in metres, 16-byte aligned so four of them fill a cache line exactly.
@@ -303,14 +413,6 @@ typedef struct SkidAbiCloud {
 typedef uint32_t (*SkidGraphPoseFn)(const void *context,
                                     struct SkidAbiKeyframeId id,
                                     struct SkidAbiTransform *out);
-
-/**
- * A relative pose with its 6×6 covariance (row-major, translation first).
- */
-typedef struct SkidAbiRelativePose {
-  struct SkidAbiTransform target_from_source;
-  double covariance[36];
-} SkidAbiRelativePose;
 
 /**
  * The odometry-only relative pose between two keyframes of one robot; returns non-zero and fills `out`
@@ -373,11 +475,6 @@ typedef SkidStatus (*SkidSubmitFn)(SkidHandle handle,
                                    const struct SkidAbiGraph *graph,
                                    struct SkidAbiVerdict *out,
                                    struct SkidErrorBuf *error);
-
-/**
- * Drops an instance; the handle is invalid afterwards whatever the status.
- */
-typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
 
 /**
  * The verifier slot's function table ([`SlotKind::VERIFIER`](super::SlotKind::VERIFIER)).

@@ -4,18 +4,19 @@
 //! `extern "C"` symbol, [`ENTRY_SYMBOL`], returning a pointer to a static [`ffi::LibraryDecl`]: ABI
 //! version, wire-type layout fingerprint and framework version first, then the library's name, a logger
 //! installer and its plugins, each a [`ffi::PluginDecl`] with slot kind, name, summary, default TOML
-//! config and the slot's function table. The source, odometry, descriptor, coarse and fine registration
-//! and verifier slots cross (not yet the back-end); the C header `include/skid_plugin.h` declares the
-//! same types for plugins written in C or C++. Only `#[repr(C)]` data and `extern "C"` function pointers
-//! cross; every exported function catches panics; config crosses as UTF-8 TOML that the plugin parses
-//! itself; clouds cross as borrowed point buffers; results and error messages go into host-allocated
-//! structs and buffers, and what a plugin lends back (a prepared cloud, a keyframe, a scan, a verdict)
-//! stays its own until it is freed or the next call.
+//! config and the slot's function table. Every plugin slot crosses: source, odometry, descriptor, coarse
+//! and fine registration, verifier and back-end (the transport, part of the host, does not); the C
+//! header `include/skid_plugin.h` declares the same types for plugins written in C or C++. Only
+//! `#[repr(C)]` data and `extern "C"` function pointers cross; every exported function catches panics;
+//! config crosses as UTF-8 TOML that the plugin parses itself; clouds cross as borrowed point buffers;
+//! results and error messages go into host-allocated structs and buffers, and what a plugin lends back
+//! (a prepared cloud, a keyframe, a scan, a verdict, the graph's lists) stays its own until it is freed
+//! or the next call.
 //!
 //! - Plugin side (always compiled, light): implement [`SourcePlugin`], [`OdometryPlugin`],
-//!   [`DescriptorPlugin`], [`CoarsePlugin`], [`FinePlugin`] or [`VerifierPlugin`] in safe Rust and call
-//!   [`export_plugins!`] (or [`export_descriptor!`] for one descriptor). Use [`parse_config`] for
-//!   `deny_unknown_fields` configs with key paths.
+//!   [`DescriptorPlugin`], [`CoarsePlugin`], [`FinePlugin`], [`VerifierPlugin`] or [`BackendPlugin`] in
+//!   safe Rust and call [`export_plugins!`] (or [`export_descriptor!`] for one descriptor). Use
+//!   [`parse_config`] for `deny_unknown_fields` configs with key paths.
 //! - Host side (feature `host`): [`load_library`] opens and checks a library; each of its
 //!   [`LoadedPlugin`]s registers itself into a `skid_core::Registry` like a built-in.
 
@@ -33,9 +34,9 @@ pub mod transform;
 
 pub use ffi::AbiTransform;
 pub use plugin::{
-    CoarseOutcome, CoarsePlugin, ConfigError, DescriptorPlugin, FineOutcome, FinePlugin, GraphAccess,
-    InstanceContext, OdometryOutcome, OdometryPlugin, OwnedScan, ScanView, SourcePlugin, VerdictOutcome,
-    VerifierPlugin, parse_config,
+    BackendPlugin, CoarseOutcome, CoarsePlugin, ConfigError, DescriptorPlugin, FineOutcome, FinePlugin,
+    GraphAccess, InstanceContext, OdometryOutcome, OdometryPlugin, OwnedScan, ScanView, SourcePlugin,
+    VerdictOutcome, VerifierPlugin, parse_config,
 };
 
 #[cfg(feature = "host")]

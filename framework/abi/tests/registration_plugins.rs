@@ -1,5 +1,5 @@
-//! Plugins of every slot that crosses the C ABI: the Rust examples' KITTI source, KISS-ICP odometry and
-//! PCM verifier against their built-ins or suites, and registration: the C++ example (`point_to_plane_icp`, built by
+//! Plugins of every slot across the C ABI: the Rust examples' KITTI source, KISS-ICP odometry, PCM
+//! verifier and pose-graph back-end against their built-ins or suites, and registration: the C++ example (`point_to_plane_icp`, built by
 //! skid-example-cpp's build script) and the Rust example (`gicp_cdylib`) pass the fine slot's
 //! conformance suite when loaded, the Rust one gives the built-in GICP's result on a real scan pair, and
 //! a C fixture compiled here with the system C compiler shows that what a plugin returns is checked: a
@@ -76,7 +76,8 @@ fn gicp_through_the_abi_conforms_and_equals_the_built_in_on_a_real_pair() {
             "kiss_icp_cdylib",
             "ring_histogram",
             "gicp_cdylib",
-            "pcm_cdylib"
+            "pcm_cdylib",
+            "pgo_cdylib"
         ]
     );
     example.register(&mut registry).unwrap();
@@ -247,6 +248,22 @@ fn pcm_through_the_abi_passes_the_verifier_suite() {
         .unwrap();
     // The suite submits consistent loops and one that is not, through a graph the host lends by callback.
     skid_testkit::verifier::check_verifier(verifier.as_mut());
+}
+
+#[test]
+fn the_pose_graph_back_end_through_the_abi_passes_the_back_end_suite() {
+    let mut registry = Registry::new();
+    load_library(library("skid-example-cdylib"))
+        .unwrap()
+        .register(&mut registry)
+        .unwrap();
+    let mut backend = registry
+        .backend
+        .create("pgo_cdylib", &Params::default(), &PluginContext::default())
+        .unwrap();
+    // The suite builds a graph, closes a loop, reads poses and odometry back through the graph view (each
+    // a call into the plugin), and removes the loop again.
+    skid_testkit::backend::check_backend(backend.as_mut());
 }
 
 #[test]

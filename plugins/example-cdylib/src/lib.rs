@@ -7,17 +7,20 @@
 //! keeps no angular information at all, which makes it cheap and coarse.
 //!
 //! It also provides `kitti_cdylib` (module [`kitti`]), `kiss_icp_cdylib` (module [`kiss`]),
-//! `gicp_cdylib` (module [`gicp`]) and `pcm_cdylib` (module [`pcm`]): the built-in KITTI source, KISS-ICP
-//! odometry, GICP fine registration and PCM verifier behind the C ABI, so that one library shows five
-//! slots of Rust plugin and the boundary's cost can be measured against the same code built in.
+//! `gicp_cdylib` (module [`gicp`]), `pcm_cdylib` (module [`pcm`]) and `pgo_cdylib` (module [`pgo`]): the
+//! built-in KITTI source, KISS-ICP odometry, GICP fine registration, PCM verifier and pose-graph back-end
+//! behind the C ABI, so that one library shows every slot of Rust plugin and the boundary's cost can be
+//! measured against the same code built in.
 //!
 //! The crate contains no `unsafe` code: it implements the slot traits of [`skid_abi`] and lets
 //! [`skid_abi::export_plugins!`] generate the C side.
 
+mod convert;
 pub mod gicp;
 pub mod kiss;
 pub mod kitti;
 pub mod pcm;
+pub mod pgo;
 
 use serde::Deserialize;
 use skid_abi::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
@@ -191,6 +194,7 @@ skid_abi::export_plugins!(
     descriptor: RingHistogram,
     fine: gicp::GicpCdylib,
     verifier: pcm::PcmCdylib,
+    backend: pgo::PgoCdylib,
 );
 
 #[cfg(test)]

@@ -2,16 +2,15 @@
 //! consistency maximisation) exported through the C ABI's verifier slot. The host's graph reaches it
 //! through the ABI's callbacks and snapshots, seen here through skid-core's `GraphView` again.
 
+use skid_abi::ffi::AbiLoop;
 use skid_abi::transform::pose_from_abi;
-use skid_abi::{
-    ConfigError, GraphAccess, InstanceContext, VerdictOutcome, VerifierPlugin,
-    ffi::{AbiKeyframeId, AbiLoop},
-    parse_config,
-};
+use skid_abi::{ConfigError, GraphAccess, InstanceContext, VerdictOutcome, VerifierPlugin, parse_config};
 use skid_core::slots::{GraphView, LoopCandidate, LoopClosure, RelativePose, Verifier};
-use skid_core::{CloudView, Information, KeyframeId, LoopId, Pose, RobotId};
+use skid_core::{CloudView, Information, KeyframeId, Pose};
 use skid_msgs::Point;
 use skid_verifier_pcm::{PcmConfig, PcmVerifier};
+
+use crate::convert::{abi_id, closure, host_id};
 
 /// The built-in verifier's defaults as TOML; a unit test keeps them equal to `PcmConfig::default()`.
 const DEFAULT_CONFIG: &str = include_str!("pcm_defaults.toml");
@@ -19,30 +18,6 @@ const DEFAULT_CONFIG: &str = include_str!("pcm_defaults.toml");
 /// The built-in PCM verifier behind the C ABI.
 pub struct PcmCdylib {
     inner: PcmVerifier,
-}
-
-fn host_id(id: AbiKeyframeId) -> KeyframeId {
-    KeyframeId {
-        robot: RobotId(id.robot),
-        index: id.index,
-    }
-}
-
-fn abi_id(id: KeyframeId) -> AbiKeyframeId {
-    AbiKeyframeId {
-        robot: id.robot.0,
-        index: id.index,
-    }
-}
-
-fn closure(lent: &AbiLoop) -> Result<LoopClosure, String> {
-    Ok(LoopClosure {
-        id: LoopId(lent.id),
-        target: host_id(lent.target),
-        source: host_id(lent.source),
-        target_from_source: pose_from_abi(&lent.target_from_source)?,
-        information: Information::from_row_slice(&lent.information),
-    })
 }
 
 /// The host's graph, lent for one submission, as skid-core's view.
@@ -121,7 +96,6 @@ impl VerifierPlugin for PcmCdylib {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use skid_abi::transform::abi_from_pose;
 
     #[test]
     fn default_config_text_matches_the_built_in_defaults() {
@@ -129,20 +103,5 @@ mod tests {
             parse_config::<PcmConfig>(DEFAULT_CONFIG).unwrap(),
             PcmConfig::default()
         );
-    }
-
-    #[test]
-    fn a_loop_round_trips() {
-        let lent = AbiLoop {
-            id: 7,
-            target: AbiKeyframeId { robot: 1, index: 4 },
-            source: AbiKeyframeId { robot: 2, index: 9 },
-            target_from_source: abi_from_pose(&Pose::translation(1.0, 2.0, 3.0)),
-            information: [0.5; 36],
-        };
-        let closure = closure(&lent).unwrap();
-        assert_eq!(closure.id, LoopId(7));
-        assert_eq!(abi_id(closure.source), lent.source);
-        assert_eq!(closure.target_from_source, Pose::translation(1.0, 2.0, 3.0));
     }
 }

@@ -10,6 +10,7 @@
 //! a foreign plugin is an error the host can report rather than undefined behaviour; [`Checked`] names
 //! the function type inside once the host has checked it.
 
+mod backend;
 mod frontend;
 mod registration;
 mod verifier;
@@ -18,6 +19,10 @@ use std::ffi::c_void;
 
 use skid_msgs::Point;
 
+pub use backend::{
+    AbiOptimizeReport, AddEdgeFn, AddKeyframeFn, BackendListsFn, BackendOdometryFn, BackendPoseFn,
+    BackendVTable, OptimizeFn, RemoveLoopFn,
+};
 pub use frontend::{
     AbiScan, NextScanFn, OdometryResult, OdometryVTable, RegisterFn, SourceInfo, SourceInfoFn, SourceVTable,
 };
@@ -143,6 +148,7 @@ impl SlotKind {
     pub const FINE: SlotKind = SlotKind(5);
     /// The table is a [`VerifierVTable`].
     pub const VERIFIER: SlotKind = SlotKind(6);
+    /// The table is a [`BackendVTable`].
     pub const BACKEND: SlotKind = SlotKind(7);
     pub const TRANSPORT: SlotKind = SlotKind(8);
 }
@@ -207,7 +213,8 @@ pub struct PluginDecl {
     /// The default parameters as TOML text.
     pub default_config: AbiStr,
     /// Points to the slot's function table: a [`SourceVTable`], [`OdometryVTable`], [`DescriptorVTable`],
-    /// [`CoarseVTable`], [`FineVTable`] or [`VerifierVTable`] as [`slot_kind`](Self::slot_kind) says.
+    /// [`CoarseVTable`], [`FineVTable`], [`VerifierVTable`] or [`BackendVTable`] as
+    /// [`slot_kind`](Self::slot_kind) says.
     pub slot_table: *const c_void,
 }
 

@@ -1,6 +1,7 @@
 //! What every slot's wrapper shares: the plugin instance behind a handle (created and destroyed through
 //! the plugin, refusing calls after a panic), and the registry entry that builds wrappers.
 
+use std::cell::Cell;
 use std::ffi::c_void;
 use std::ptr::NonNull;
 
@@ -34,7 +35,7 @@ pub(super) struct Instance {
     pub(super) handle: NonNull<c_void>,
     pub(super) plugin: &'static PluginSpec,
     destroy: Checked<DestroyFn>,
-    poisoned: bool,
+    poisoned: Cell<bool>,
 }
 
 // SAFETY: the plugin type behind the handle is `Send` (required by every slot trait of the plugin side
@@ -45,7 +46,7 @@ impl std::fmt::Debug for Instance {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Instance")
             .field("plugin", &self.plugin.name)
-            .field("poisoned", &self.poisoned)
+            .field("poisoned", &self.poisoned.get())
             .finish()
     }
 }
@@ -65,13 +66,13 @@ impl Instance {
             handle,
             plugin,
             destroy,
-            poisoned: false,
+            poisoned: Cell::new(false),
         })
     }
 
     /// An error when an earlier call panicked.
     pub(super) fn check_poison(&self) -> PluginResult<()> {
-        if self.poisoned {
+        if self.poisoned.get() {
             return Err(PluginError::failed(
                 &self.plugin.name,
                 "this instance panicked in an earlier call and is unusable; create a new one",
@@ -81,8 +82,10 @@ impl Instance {
     }
 
     /// The error for a failed call, poisoning the instance on a panic.
-    pub(super) fn fail(&mut self, error: CallError) -> PluginError {
-        self.poisoned |= error.status == Status::PANICKED;
+    pub(super) fn fail(&self, error: CallError) -> PluginError {
+        if error.status == Status::PANICKED {
+            self.poisoned.set(true);
+        }
         error.into_plugin_error(&self.plugin.name)
     }
 

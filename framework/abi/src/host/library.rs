@@ -12,10 +12,11 @@ use skid_core::{Params, Slot};
 
 use super::{AbiError, logging};
 use crate::ffi::{
-    AbiStr, AlignFn, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable,
-    DestroyFn, DestroyPreparedFn, FineVTable, LibraryDecl, NextScanFn, OdometryVTable, PluginDecl, PrepareFn,
-    PreparedPointsFn, RefineFn, RegisterFn, SlotKind, SourceInfoFn, SourceVTable, Status, SubmitFn,
-    VerifierVTable,
+    AbiStr, AddEdgeFn, AddKeyframeFn, AlignFn, BackendListsFn, BackendOdometryFn, BackendPoseFn,
+    BackendVTable, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable, DestroyFn,
+    DestroyPreparedFn, FineVTable, LibraryDecl, NextScanFn, OdometryVTable, OptimizeFn, PluginDecl,
+    PrepareFn, PreparedPointsFn, RefineFn, RegisterFn, RemoveLoopFn, SlotKind, SourceInfoFn, SourceVTable,
+    Status, SubmitFn, VerifierVTable,
 };
 use crate::{ABI_VERSION, ENTRY_SYMBOL, FRAMEWORK_VERSION};
 
@@ -62,6 +63,7 @@ impl PluginSpec {
     pub(crate) fn slot(&self) -> Slot {
         match self.table {
             SlotTable::Source(_) => Slot::Source,
+            SlotTable::Backend(_) => Slot::Backend,
             SlotTable::Verifier(_) => Slot::Verifier,
             SlotTable::Odometry(_) => Slot::Odometry,
             SlotTable::Descriptor(_) => Slot::Descriptor,
@@ -75,11 +77,26 @@ impl PluginSpec {
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum SlotTable {
     Source(SourceFns),
+    Backend(BackendFns),
     Verifier(VerifierFns),
     Odometry(OdometryFns),
     Descriptor(DescriptorFns),
     Coarse(CoarseFns),
     Fine(FineFns),
+}
+
+/// The back-end function table.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BackendFns {
+    pub(crate) create: Checked<CreateFn>,
+    pub(crate) add_keyframe: Checked<AddKeyframeFn>,
+    pub(crate) add_edge: Checked<AddEdgeFn>,
+    pub(crate) remove_loop: Checked<RemoveLoopFn>,
+    pub(crate) optimize: Checked<OptimizeFn>,
+    pub(crate) pose: Checked<BackendPoseFn>,
+    pub(crate) odometry_between: Checked<BackendOdometryFn>,
+    pub(crate) lists: Checked<BackendListsFn>,
+    pub(crate) destroy: Checked<DestroyFn>,
 }
 
 /// The verifier function table.
@@ -300,6 +317,46 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
         .map_err(|error| format!("`{name}`: the default config is not TOML: {error}"))?;
     let null_entry = |slot: &str| format!("`{name}`: the {slot} function table has a null entry");
     let table = match decl.slot_kind {
+        SlotKind::BACKEND => {
+            // SAFETY: for this kind the table is a static `BackendVTable` (null is checked).
+            let table = unsafe { decl.slot_table.cast::<BackendVTable>().as_ref() }
+                .ok_or_else(|| format!("`{name}`: the back-end function table is null"))?;
+            let (
+                Some(create),
+                Some(add_keyframe),
+                Some(add_edge),
+                Some(remove_loop),
+                Some(optimize),
+                Some(pose),
+                Some(odometry_between),
+                Some(lists),
+                Some(destroy),
+            ) = (
+                table.create,
+                table.add_keyframe,
+                table.add_edge,
+                table.remove_loop,
+                table.optimize,
+                table.pose,
+                table.odometry_between,
+                table.lists,
+                table.destroy,
+            )
+            else {
+                return Err(null_entry("back-end").into());
+            };
+            SlotTable::Backend(BackendFns {
+                create,
+                add_keyframe,
+                add_edge,
+                remove_loop,
+                optimize,
+                pose,
+                odometry_between,
+                lists,
+                destroy,
+            })
+        }
         SlotKind::VERIFIER => {
             // SAFETY: for this kind the table is a static `VerifierVTable` (null is checked).
             let table = unsafe { decl.slot_table.cast::<VerifierVTable>().as_ref() }

@@ -5,8 +5,10 @@
 //! and loading the same file again returns the same plugin. Instances are destroyed by their wrappers'
 //! `Drop`, always before the process ends and always while their library is still mapped.
 
+mod backend;
 mod call;
 mod descriptor;
+mod graph;
 mod index;
 mod instance;
 mod library;
@@ -20,6 +22,7 @@ use std::path::{Path, PathBuf};
 
 use skid_core::{ParamError, Params, PluginError, Registry, Slot};
 
+pub use backend::DynBackend;
 pub use descriptor::DynDescriptor;
 pub use index::ExactL2Index;
 pub use logging::PLUGIN_TARGET;
@@ -72,7 +75,7 @@ pub enum AbiError {
     },
 
     /// The plugin fills a slot this host cannot load dynamically yet.
-    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: source, odometry, descriptor, coarse, fine, verifier)", path.display())]
+    #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: source, odometry, descriptor, coarse, fine, verifier, back-end)", path.display())]
     UnsupportedSlot { path: PathBuf, name: String, kind: u32 },
 
     /// The declaration is broken: a null pointer, a non-UTF-8 string, an unparsable default config.
@@ -182,6 +185,7 @@ impl LoadedPlugin {
     pub fn register(&self, registry: &mut Registry) -> Result<(), AbiError> {
         let plugin = self.plugin;
         let result = match plugin.table {
+            SlotTable::Backend(fns) => registry.backend.register(backend::entry(plugin, fns)),
             SlotTable::Verifier(fns) => registry.verifier.register(verifier::entry(plugin, fns)),
             SlotTable::Source(fns) => registry.source.register(source::entry(plugin, fns)),
             SlotTable::Odometry(fns) => registry.odometry.register(odometry::entry(plugin, fns)),
@@ -198,6 +202,7 @@ impl LoadedPlugin {
     /// Checks parameters by building an instance and destroying it again.
     pub fn validate(&self, params: &Params) -> Result<(), ParamError> {
         let (create, destroy) = match self.plugin.table {
+            SlotTable::Backend(fns) => (fns.create, fns.destroy),
             SlotTable::Verifier(fns) => (fns.create, fns.destroy),
             SlotTable::Source(fns) => (fns.create, fns.destroy),
             SlotTable::Odometry(fns) => (fns.create, fns.destroy),
@@ -217,6 +222,18 @@ impl LoadedPlugin {
     ) -> Option<Result<DynDescriptor, PluginError>> {
         match self.plugin.table {
             SlotTable::Descriptor(fns) => Some(DynDescriptor::create(self.plugin, fns, params, context)),
+            _ => None,
+        }
+    }
+
+    /// A back-end instance built from `params`; `None` when the plugin is not one.
+    pub fn create_backend(
+        &self,
+        params: &Params,
+        context: &skid_core::PluginContext,
+    ) -> Option<Result<DynBackend, PluginError>> {
+        match self.plugin.table {
+            SlotTable::Backend(fns) => Some(DynBackend::create(self.plugin, fns, params, context)),
             _ => None,
         }
     }

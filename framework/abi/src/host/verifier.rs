@@ -7,10 +7,11 @@
 use std::ffi::c_void;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
-use skid_core::slots::{GraphView, LoopCandidate, LoopClosure, Verdict, Verifier};
-use skid_core::{Information, KeyframeId, LoopId, Params, PluginContext, PluginEntry, PluginResult, RobotId};
+use skid_core::slots::{GraphView, LoopCandidate, Verdict, Verifier};
+use skid_core::{LoopId, Params, PluginContext, PluginEntry, PluginResult};
 
 use super::call::ErrorSlot;
+use super::graph::{abi_id, abi_loop, host_id, row_major};
 use super::instance::{Instance, registry_entry};
 use super::library::{PluginSpec, VerifierFns};
 use crate::ffi::{AbiCloud, AbiGraph, AbiKeyframeId, AbiLoop, AbiRelativePose, AbiTransform, AbiVerdict};
@@ -25,40 +26,6 @@ pub(super) fn entry(plugin: &'static PluginSpec, fns: VerifierFns) -> PluginEntr
         DynVerifier::create(plugin, fns, params, context)
             .map(|verifier| Box::new(verifier) as Box<dyn Verifier>)
     })
-}
-
-fn abi_id(id: KeyframeId) -> AbiKeyframeId {
-    AbiKeyframeId {
-        robot: id.robot.0,
-        index: id.index,
-    }
-}
-
-fn host_id(id: AbiKeyframeId) -> KeyframeId {
-    KeyframeId {
-        robot: RobotId(id.robot),
-        index: id.index,
-    }
-}
-
-fn row_major(matrix: &Information) -> [f64; 36] {
-    let mut out = [0.0; 36];
-    for row in 0..6 {
-        for column in 0..6 {
-            out[row * 6 + column] = matrix[(row, column)];
-        }
-    }
-    out
-}
-
-fn abi_loop(closure: &LoopClosure) -> AbiLoop {
-    AbiLoop {
-        id: closure.id.0,
-        target: abi_id(closure.target),
-        source: abi_id(closure.source),
-        target_from_source: abi_from_pose(&closure.target_from_source),
-        information: row_major(&closure.information),
-    }
 }
 
 /// The graph a callback reads: a pointer to the host's `&dyn GraphView`, valid during one submission.

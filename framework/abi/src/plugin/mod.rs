@@ -48,6 +48,7 @@
 //!
 //! and no `unsafe` code: the macro's generated items carry their own `#[allow(unsafe_code)]`.
 
+mod backend;
 mod descriptor;
 mod glue;
 mod logger;
@@ -61,6 +62,7 @@ use std::fmt;
 
 use serde::de::DeserializeOwned;
 
+pub use backend::{BackendPlugin, backend_vtable};
 pub use descriptor::{DescriptorPlugin, descriptor_vtable};
 pub use glue::{LibraryName, library_decl, plugin_decl};
 pub use odometry::{OdometryOutcome, OdometryPlugin, ScanView, odometry_vtable};
@@ -159,7 +161,8 @@ pub fn parse_config<C: DeserializeOwned>(text: &str) -> Result<C, ConfigError> {
 
 /// Exports this library's plugins: one `slot: Type` pair per plugin, where the slot is `source` (a
 /// [`SourcePlugin`]), `odometry` (an [`OdometryPlugin`]), `descriptor` (a [`DescriptorPlugin`]),
-/// `coarse` (a [`CoarsePlugin`]), `fine` (a [`FinePlugin`]) or `verifier` (a [`VerifierPlugin`]).
+/// `coarse` (a [`CoarsePlugin`]), `fine` (a [`FinePlugin`]), `verifier` (a [`VerifierPlugin`]) or
+/// `backend` (a [`BackendPlugin`]).
 /// Generates the function tables, the static declarations and the `skid_plugin_entry` symbol. Use it
 /// once per library:
 ///
@@ -178,6 +181,16 @@ macro_rules! export_plugins {
             <$plugin as $crate::DescriptorPlugin>::NAME,
             <$plugin as $crate::DescriptorPlugin>::SUMMARY,
             <$plugin as $crate::DescriptorPlugin>::DEFAULT_CONFIG,
+            &TABLE,
+        )
+    }};
+    (@decl backend $plugin:ty) => {{
+        static TABLE: $crate::ffi::BackendVTable = $crate::plugin::backend_vtable::<$plugin>();
+        $crate::plugin::plugin_decl(
+            $crate::ffi::SlotKind::BACKEND,
+            <$plugin as $crate::BackendPlugin>::NAME,
+            <$plugin as $crate::BackendPlugin>::SUMMARY,
+            <$plugin as $crate::BackendPlugin>::DEFAULT_CONFIG,
             &TABLE,
         )
     }};

@@ -14,6 +14,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use skid_abi::LoadedPlugin;
 use skid_core::{Params, PluginContext, Slot};
+use skid_testkit::backend::check_backend;
 use skid_testkit::descriptor::{DescriptorExpectations, check_descriptor};
 use skid_testkit::odometry::{OdometryExpectations, check_odometry};
 use skid_testkit::registration::{RegistrationExpectations, coarse_checks, fine_checks};
@@ -133,6 +134,16 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
                 .into_iter()
                 .map(|(check, body)| run_check(check, || body(&mut coarse)))
                 .collect(),
+            Some(Err(error)) => not_created(name, error),
+            None => Vec::new(),
+        },
+        Slot::Backend => match plugin.create_backend(&defaults, &context) {
+            Some(Ok(mut backend)) => vec![run_check(
+                "closes a loop; removing it restores the odometry solution",
+                || {
+                    check_backend(&mut backend);
+                },
+            )],
             Some(Err(error)) => not_created(name, error),
             None => Vec::new(),
         },
