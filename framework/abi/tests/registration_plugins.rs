@@ -283,6 +283,18 @@ fn a_library_with_a_null_table_entry_is_refused_naming_the_plugin() {
 }
 
 #[test]
+fn a_library_built_for_another_wire_layout_is_refused_before_its_plugins_are_read() {
+    let path = compile_fixture("skid_fixture_wrong_layout", &["-DSKID_FIXTURE_WRONG_LAYOUT"]);
+    let error = load_library(&path).unwrap_err();
+    assert!(matches!(error, AbiError::Layout { .. }), "{error}");
+    let text = error.to_string();
+    assert!(
+        text.contains("wire type layout mismatch") && text.contains("libskid_fixture_wrong_layout.so"),
+        "{text}"
+    );
+}
+
+#[test]
 fn what_a_plugin_returns_is_checked_before_it_reaches_the_pipeline() {
     let path = compile_fixture("skid_fixture_liar", &[]);
     let mut registry = Registry::new();

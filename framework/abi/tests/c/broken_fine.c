@@ -5,8 +5,9 @@
  *   behaviour = "fails"            refine returns FAILED with a message;
  *   behaviour = "honest"           refine returns the guess, converged.
  * A second plugin, `overcounting_liar`, has prepared clouds that claim a point more than they were given.
- * Compiled with -DSKID_FIXTURE_NULL_ENTRY, the function table has a null `refine` and the library must
- * be refused at load time. */
+ * Compiled with -DSKID_FIXTURE_NULL_ENTRY, the function table has a null `refine`, and with
+ * -DSKID_FIXTURE_WRONG_LAYOUT the declaration carries another wire-layout fingerprint: either library
+ * must be refused at load time. */
 
 #include <stdlib.h>
 #include <string.h>
@@ -151,7 +152,11 @@ __attribute__((visibility("default"))) const SkidLibraryDecl *skid_plugin_entry(
     PLUGINS[1].default_config = text("");
     PLUGINS[1].slot_table = &OVERCOUNTING_TABLE;
     LIBRARY.abi_version = SKID_ABI_VERSION;
+#ifdef SKID_FIXTURE_WRONG_LAYOUT
+    LIBRARY.layout_fingerprint = SKID_LAYOUT_FINGERPRINT ^ 1u;
+#else
     LIBRARY.layout_fingerprint = SKID_LAYOUT_FINGERPRINT;
+#endif
     LIBRARY.framework_version = text(SKID_FRAMEWORK_VERSION);
     LIBRARY.name = text("broken-fine-fixture");
     LIBRARY.set_logger = NULL;
