@@ -33,12 +33,13 @@ const EXCLUDED: [&str; 5] = ["ERROR", "WARN", "INFO", "DEBUG", "TRACE"];
 pub const HEADER_PATH: &str = "framework/abi/include/skid_plugin.h";
 
 /// The sources that declare what crosses the boundary.
-const SOURCES: [&str; 6] = [
+const SOURCES: [&str; 7] = [
     "framework/abi/src/ffi/mod.rs",
     "framework/abi/src/ffi/frontend.rs",
     "framework/abi/src/ffi/registration.rs",
     "framework/abi/src/ffi/verifier.rs",
     "framework/abi/src/ffi/backend.rs",
+    "framework/abi/src/ffi/descriptor.rs",
     "framework/msgs/src/points.rs",
 ];
 

@@ -668,12 +668,78 @@ typedef SkidStatus (*SkidDescribeFn)(SkidHandle handle,
                                      struct SkidErrorBuf *error);
 
 /**
- * The descriptor slot's function table ([`SlotKind::DESCRIPTOR`]).
+ * Makes an empty index for this instance's descriptors; a null `out_index` means "use the host's".
+ */
+typedef SkidStatus (*SkidNewIndexFn)(SkidHandle handle,
+                                     SkidHandle *out_index,
+                                     struct SkidErrorBuf *error);
+
+/**
+ * Stores a descriptor under a keyframe id; a descriptor of another length is an error.
+ */
+typedef SkidStatus (*SkidIndexInsertFn)(SkidHandle index,
+                                        struct SkidAbiKeyframeId id,
+                                        const float *values,
+                                        size_t len,
+                                        struct SkidErrorBuf *error);
+
+/**
+ * The host's exclusion test during a query: non-zero when the keyframe must not be returned.
+ */
+typedef uint32_t (*SkidExcludeFn)(const void *context, struct SkidAbiKeyframeId id);
+
+/**
+ * One retrieved keyframe.
+ */
+typedef struct SkidAbiPlaceCandidate {
+  struct SkidAbiKeyframeId id;
+  /**
+   * Descriptor distance as the plugin defines it; smaller is more similar.
+   */
+  double distance;
+  /**
+   * Non-zero when `yaw_hint_rad` holds the yaw of `candidate_from_query`.
+   */
+  uint32_t has_yaw_hint;
+  /**
+   * Explicit padding.
+   */
+  uint32_t reserved;
+  double yaw_hint_rad;
+} SkidAbiPlaceCandidate;
+
+/**
+ * The up to `k` most similar stored keyframes that `exclude` lets through, best first, lent until the
+ * next call on the index.
+ */
+typedef SkidStatus (*SkidIndexQueryFn)(SkidHandle index,
+                                       const float *values,
+                                       size_t len,
+                                       size_t k,
+                                       SkidExcludeFn exclude,
+                                       const void *exclude_context,
+                                       const struct SkidAbiPlaceCandidate **out_candidates,
+                                       size_t *out_count,
+                                       struct SkidErrorBuf *error);
+
+/**
+ * The number of stored descriptors.
+ */
+typedef SkidStatus (*SkidIndexLenFn)(SkidHandle index, size_t *out_len, struct SkidErrorBuf *error);
+
+/**
+ * The descriptor slot's function table ([`SlotKind::DESCRIPTOR`](super::SlotKind::DESCRIPTOR)). The
+ * index entries are required even for a plugin without an index: its `new_index` returns null.
  */
 typedef struct SkidDescriptorVTable {
   SkidCreateFn create;
   SkidDescriptorLenFn descriptor_len;
   SkidDescribeFn describe;
+  SkidNewIndexFn new_index;
+  SkidIndexInsertFn index_insert;
+  SkidIndexQueryFn index_query;
+  SkidIndexLenFn index_len;
+  SkidDestroyFn destroy_index;
   SkidDestroyFn destroy;
 } SkidDescriptorVTable;
 

@@ -35,8 +35,8 @@ pub mod transform;
 pub use ffi::AbiTransform;
 pub use plugin::{
     BackendPlugin, CoarseOutcome, CoarsePlugin, ConfigError, DescriptorPlugin, FineOutcome, FinePlugin,
-    GraphAccess, InstanceContext, OdometryOutcome, OdometryPlugin, OwnedScan, ScanView, SourcePlugin,
-    VerdictOutcome, VerifierPlugin, parse_config,
+    GraphAccess, IndexCandidate, IndexPlugin, InstanceContext, OdometryOutcome, OdometryPlugin, OwnedScan,
+    ScanView, SourcePlugin, VerdictOutcome, VerifierPlugin, parse_config,
 };
 
 #[cfg(feature = "host")]

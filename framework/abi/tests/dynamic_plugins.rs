@@ -88,6 +88,54 @@ fn example_plugin_registers_and_is_yaw_invariant_on_a_kitti_scan() {
 }
 
 #[test]
+fn the_plugins_own_index_retrieves_by_its_own_distance() {
+    let registry = registry_with_example();
+    let mut descriptor = registry
+        .descriptor
+        .create("ring_histogram", &Params::default(), &PluginContext::default())
+        .unwrap();
+    let (here, there) = (kitti_scan(0), kitti_scan(15));
+    let (a, b) = (
+        descriptor.describe(CloudView::new(&here)).unwrap(),
+        descriptor.describe(CloudView::new(&there)).unwrap(),
+    );
+    let mut index = descriptor.new_index();
+    index.insert(KeyframeId::new(0, 0), a.clone()).unwrap();
+    index.insert(KeyframeId::new(0, 15), b.clone()).unwrap();
+    assert_eq!(index.len(), 2);
+    let found = index.query(&a, 5, &|_| false).unwrap();
+    assert_eq!(found.len(), 2, "no more than stored");
+    assert_eq!(found[0].id, KeyframeId::new(0, 0));
+    let chi_squared: f64 = a
+        .values
+        .iter()
+        .zip(&b.values)
+        .map(|(&x, &y)| (f64::from(x), f64::from(y)))
+        .filter(|(x, y)| x + y > 0.0)
+        .map(|(x, y)| (x - y).powi(2) / (x + y))
+        .sum();
+    assert!(
+        (found[1].distance - chi_squared).abs() < 1e-9 * chi_squared.max(1.0),
+        "the plugin's chi-squared distance, not L2: {} vs {chi_squared} (L2 {})",
+        found[1].distance,
+        l2(&a, &b)
+    );
+    let excluded = index.query(&a, 5, &|id| id == KeyframeId::new(0, 0)).unwrap();
+    assert_eq!(
+        excluded.iter().map(|c| c.id).collect::<Vec<_>>(),
+        [KeyframeId::new(0, 15)]
+    );
+    let other_kind = DescriptorBuf {
+        kind: "solid".to_owned(),
+        values: a.values.clone(),
+    };
+    assert!(
+        index.insert(KeyframeId::new(1, 0), other_kind).is_err(),
+        "another kind is refused"
+    );
+}
+
+#[test]
 fn a_bad_config_key_is_named() {
     let registry = registry_with_example();
     let error = registry

@@ -4,7 +4,8 @@
 //! concentric rings of horizontal range around the sensor and into height bands, and the descriptor is
 //! the fraction of points in each (ring, band) cell, ring-major. Horizontal range and height do not
 //! change when the sensor turns about its vertical axis, so the descriptor is invariant to yaw; it
-//! keeps no angular information at all, which makes it cheap and coarse.
+//! keeps no angular information at all, which makes it cheap and coarse. It brings its own retrieval
+//! index (module [`chi_squared`]): the chi-squared distance between histograms rather than L2.
 //!
 //! It also provides `kitti_cdylib` (module [`kitti`]), `kiss_icp_cdylib` (module [`kiss`]),
 //! `gicp_cdylib` (module [`gicp`]), `pcm_cdylib` (module [`pcm`]) and `pgo_cdylib` (module [`pgo`]): the
@@ -15,6 +16,7 @@
 //! The crate contains no `unsafe` code: it implements the slot traits of [`skid_abi`] and lets
 //! [`skid_abi::export_plugins!`] generate the C side.
 
+pub mod chi_squared;
 mod convert;
 pub mod gicp;
 pub mod kiss;
@@ -23,7 +25,7 @@ pub mod pcm;
 pub mod pgo;
 
 use serde::Deserialize;
-use skid_abi::{ConfigError, DescriptorPlugin, InstanceContext, parse_config};
+use skid_abi::{ConfigError, DescriptorPlugin, IndexPlugin, InstanceContext, parse_config};
 use skid_core::{PluginContext, RobotId};
 use skid_msgs::Point;
 
@@ -185,6 +187,10 @@ impl DescriptorPlugin for RingHistogram {
         out.iter_mut().for_each(|value| *value *= scale);
         tracing::debug!(points = points.len(), counted, "described a cloud");
         Ok(())
+    }
+
+    fn new_index(&self) -> Option<Box<dyn IndexPlugin>> {
+        Some(Box::new(chi_squared::ChiSquaredIndex::new(self.descriptor_len())))
     }
 }
 

@@ -11,17 +11,20 @@
 //! the function type inside once the host has checked it.
 
 mod backend;
+mod descriptor;
 mod frontend;
 mod registration;
 mod verifier;
 
 use std::ffi::c_void;
 
-use skid_msgs::Point;
-
 pub use backend::{
     AbiOptimizeReport, AddEdgeFn, AddKeyframeFn, BackendListsFn, BackendOdometryFn, BackendPoseFn,
     BackendVTable, OptimizeFn, RemoveLoopFn,
+};
+pub use descriptor::{
+    AbiPlaceCandidate, DescribeFn, DescriptorLenFn, DescriptorVTable, ExcludeFn, IndexInsertFn, IndexLenFn,
+    IndexQueryFn, NewIndexFn,
 };
 pub use frontend::{
     AbiScan, NextScanFn, OdometryResult, OdometryVTable, RegisterFn, SourceInfo, SourceInfoFn, SourceVTable,
@@ -248,36 +251,8 @@ pub type CreateFn = Option<
     ) -> Status,
 >;
 
-/// The length of the descriptor this instance produces.
-pub type DescriptorLenFn =
-    Option<unsafe extern "C" fn(handle: Handle, out_len: *mut usize, error: *mut ErrorBuf) -> Status>;
-
-/// Describes `count` points into `out` (capacity `capacity` values); stores the length written, or the
-/// length needed with [`Status::BUFFER_TOO_SMALL`].
-pub type DescribeFn = Option<
-    unsafe extern "C" fn(
-        handle: Handle,
-        points: *const Point,
-        count: usize,
-        out: *mut f32,
-        capacity: usize,
-        out_len: *mut usize,
-        error: *mut ErrorBuf,
-    ) -> Status,
->;
-
 /// Drops an instance; the handle is invalid afterwards whatever the status.
 pub type DestroyFn = Option<unsafe extern "C" fn(handle: Handle, error: *mut ErrorBuf) -> Status>;
-
-/// The descriptor slot's function table ([`SlotKind::DESCRIPTOR`]).
-#[repr(C)]
-#[derive(Debug)]
-pub struct DescriptorVTable {
-    pub create: CreateFn,
-    pub descriptor_len: DescriptorLenFn,
-    pub describe: DescribeFn,
-    pub destroy: DestroyFn,
-}
 
 #[cfg(test)]
 mod tests {

@@ -7,6 +7,7 @@ use super::call::{CallError, ErrorSlot};
 use super::index::ExactL2Index;
 use super::instance::{Instance, registry_entry};
 use super::library::{DescriptorFns, PluginSpec};
+use super::plugin_index::PluginIndex;
 use crate::ffi::Status;
 
 /// The registry entry of a loaded descriptor plugin.
@@ -121,6 +122,15 @@ impl Descriptor for DynDescriptor {
     }
 
     fn new_index(&self) -> Box<dyn DescriptorIndex> {
-        Box::new(ExactL2Index::new(&self.instance.plugin.name))
+        let plugin = self.instance.plugin;
+        match PluginIndex::create(plugin, self.fns, &self.instance) {
+            Ok(Some(index)) => Box::new(index),
+            Ok(None) => Box::new(ExactL2Index::new(&plugin.name)),
+            Err(error) => {
+                // The trait cannot fail here: fall back to the exact L2 index, and say so.
+                tracing::warn!(target: "skid::plugin", plugin = %plugin.name, "new_index failed, retrieving by exact L2 distance instead: {error}");
+                Box::new(ExactL2Index::new(&plugin.name))
+            }
+        }
     }
 }

@@ -70,6 +70,21 @@ impl Instance {
         })
     }
 
+    /// Takes ownership of a handle the plugin made in another call (an index, say), destroyed with
+    /// `destroy` when dropped.
+    pub(super) fn adopt(
+        handle: NonNull<c_void>,
+        plugin: &'static PluginSpec,
+        destroy: Checked<DestroyFn>,
+    ) -> Self {
+        Self {
+            handle,
+            plugin,
+            destroy,
+            poisoned: Cell::new(false),
+        }
+    }
+
     /// An error when an earlier call panicked.
     pub(super) fn check_poison(&self) -> PluginResult<()> {
         if self.poisoned.get() {

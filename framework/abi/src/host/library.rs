@@ -14,9 +14,9 @@ use super::{AbiError, logging};
 use crate::ffi::{
     AbiStr, AddEdgeFn, AddKeyframeFn, AlignFn, BackendListsFn, BackendOdometryFn, BackendPoseFn,
     BackendVTable, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable, DestroyFn,
-    DestroyPreparedFn, FineVTable, LibraryDecl, NextScanFn, OdometryVTable, OptimizeFn, PluginDecl,
-    PrepareFn, PreparedPointsFn, RefineFn, RegisterFn, RemoveLoopFn, SlotKind, SourceInfoFn, SourceVTable,
-    Status, SubmitFn, VerifierVTable,
+    DestroyPreparedFn, FineVTable, IndexInsertFn, IndexLenFn, IndexQueryFn, LibraryDecl, NewIndexFn,
+    NextScanFn, OdometryVTable, OptimizeFn, PluginDecl, PrepareFn, PreparedPointsFn, RefineFn, RegisterFn,
+    RemoveLoopFn, SlotKind, SourceInfoFn, SourceVTable, Status, SubmitFn, VerifierVTable,
 };
 use crate::{ABI_VERSION, ENTRY_SYMBOL, FRAMEWORK_VERSION};
 
@@ -130,6 +130,11 @@ pub(crate) struct DescriptorFns {
     pub(crate) create: Checked<CreateFn>,
     pub(crate) descriptor_len: Checked<DescriptorLenFn>,
     pub(crate) describe: Checked<DescribeFn>,
+    pub(crate) new_index: Checked<NewIndexFn>,
+    pub(crate) index_insert: Checked<IndexInsertFn>,
+    pub(crate) index_query: Checked<IndexQueryFn>,
+    pub(crate) index_len: Checked<IndexLenFn>,
+    pub(crate) destroy_index: Checked<DestroyFn>,
     pub(crate) destroy: Checked<DestroyFn>,
 }
 
@@ -405,8 +410,27 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
             // SAFETY: for this kind the table is a static `DescriptorVTable` (null is checked).
             let table = unsafe { decl.slot_table.cast::<DescriptorVTable>().as_ref() }
                 .ok_or_else(|| format!("`{name}`: the descriptor function table is null"))?;
-            let (Some(create), Some(descriptor_len), Some(describe), Some(destroy)) =
-                (table.create, table.descriptor_len, table.describe, table.destroy)
+            let (
+                Some(create),
+                Some(descriptor_len),
+                Some(describe),
+                Some(new_index),
+                Some(index_insert),
+                Some(index_query),
+                Some(index_len),
+                Some(destroy_index),
+                Some(destroy),
+            ) = (
+                table.create,
+                table.descriptor_len,
+                table.describe,
+                table.new_index,
+                table.index_insert,
+                table.index_query,
+                table.index_len,
+                table.destroy_index,
+                table.destroy,
+            )
             else {
                 return Err(null_entry("descriptor").into());
             };
@@ -414,6 +438,11 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
                 create,
                 descriptor_len,
                 describe,
+                new_index,
+                index_insert,
+                index_query,
+                index_len,
+                destroy_index,
                 destroy,
             })
         }

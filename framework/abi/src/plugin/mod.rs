@@ -63,7 +63,7 @@ use std::fmt;
 use serde::de::DeserializeOwned;
 
 pub use backend::{BackendPlugin, backend_vtable};
-pub use descriptor::{DescriptorPlugin, descriptor_vtable};
+pub use descriptor::{DescriptorPlugin, IndexCandidate, IndexPlugin, descriptor_vtable};
 pub use glue::{LibraryName, library_decl, plugin_decl};
 pub use odometry::{OdometryOutcome, OdometryPlugin, ScanView, odometry_vtable};
 pub use registration::{CoarseOutcome, CoarsePlugin, FineOutcome, FinePlugin, coarse_vtable, fine_vtable};
