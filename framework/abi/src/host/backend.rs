@@ -7,7 +7,7 @@ use skid_core::slots::{
 };
 use skid_core::{Information, KeyframeId, LoopId, Params, PluginContext, PluginEntry, PluginResult, Pose};
 
-use super::call::{CallError, ErrorSlot};
+use super::call::{CallError, ErrorSlot, copy_lent};
 use super::graph::{abi_id, abi_loop, host_id, loop_from_abi};
 use super::instance::{Instance, registry_entry};
 use super::library::{BackendFns, PluginSpec};
@@ -95,19 +95,6 @@ impl DynBackend {
         // plausible bound, both checked above.
         Ok(unsafe { (copy_lent(keyframes, keyframe_count), copy_lent(loops, loop_count)) })
     }
-}
-
-/// A copy of `count` values at `pointer`.
-///
-/// # Safety
-///
-/// `pointer` must point to `count` initialised values when `count` is not zero.
-unsafe fn copy_lent<T: Copy>(pointer: *const T, count: usize) -> Vec<T> {
-    if count == 0 {
-        return Vec::new();
-    }
-    // SAFETY: the caller's guarantee.
-    unsafe { std::slice::from_raw_parts(pointer, count) }.to_vec()
 }
 
 impl Backend for DynBackend {

@@ -173,3 +173,16 @@ pub(crate) fn validate_params(
         .map(|handle| destroy_instance(plugin, destroy, handle))
         .map_err(|error| error.into_param_error(&plugin.name))
 }
+
+/// A copy of `count` values a plugin lent at `pointer`.
+///
+/// # Safety
+///
+/// `pointer` must point to `count` initialised values when `count` is not zero.
+pub(crate) unsafe fn copy_lent<T: Copy>(pointer: *const T, count: usize) -> Vec<T> {
+    if count == 0 {
+        return Vec::new();
+    }
+    // SAFETY: the caller's guarantee.
+    unsafe { std::slice::from_raw_parts(pointer, count) }.to_vec()
+}

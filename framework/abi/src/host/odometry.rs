@@ -9,7 +9,7 @@ use skid_core::{
     Cloud, Keyframe, KeyframeId, Params, PluginContext, PluginEntry, PluginError, PluginResult, Scan,
 };
 
-use super::call::ErrorSlot;
+use super::call::{ErrorSlot, copy_lent};
 use super::instance::{Instance, registry_entry};
 use super::library::{OdometryFns, PluginSpec};
 use crate::ffi::{AbiScan, AbiTransform, OdometryResult};
@@ -102,13 +102,9 @@ impl Odometry for DynOdometry {
                     scan.points.len()
                 )));
             }
-            let points = if out.keyframe_count == 0 {
-                Vec::new()
-            } else {
-                // SAFETY: the plugin lends `keyframe_count` points until its next call, and the count is
-                // no larger than the scan it was given.
-                unsafe { std::slice::from_raw_parts(out.keyframe_points, out.keyframe_count) }.to_vec()
-            };
+            // SAFETY: the plugin lends `keyframe_count` points until its next call; non-null when non-empty
+            // and no larger than the scan it was given, both checked above.
+            let points = unsafe { copy_lent(out.keyframe_points, out.keyframe_count) };
             let id = KeyframeId::new(scan.robot.0, self.keyframes);
             self.keyframes += 1;
             Some(Keyframe {

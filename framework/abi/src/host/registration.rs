@@ -14,7 +14,7 @@ use skid_core::{
     Cloud, CloudView, Information, Params, PluginContext, PluginEntry, PluginError, PluginResult, Pose,
 };
 
-use super::call::ErrorSlot;
+use super::call::{ErrorSlot, copy_lent};
 use super::instance::{Instance, registry_entry};
 use super::library::{CoarseFns, FineFns, PluginSpec};
 use crate::ffi::{
@@ -181,14 +181,9 @@ impl DynFine {
                 kept.count, kept.points
             )));
         }
-        let points = if kept.count == 0 {
-            Vec::new()
-        } else {
-            // SAFETY: the plugin guarantees `count` points at `points` for the prepared cloud's life,
-            // and the count is no larger than the cloud it was given.
-            unsafe { std::slice::from_raw_parts(kept.points, kept.count) }.to_vec()
-        };
-        Ok(Cloud::new(points))
+        // SAFETY: the plugin guarantees `count` points at `points` for the prepared cloud's life;
+        // non-null when non-empty and no larger than the cloud it was given, both checked above.
+        Ok(Cloud::new(unsafe { copy_lent(kept.points, kept.count) }))
     }
 }
 

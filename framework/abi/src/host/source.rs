@@ -7,7 +7,7 @@
 use skid_core::slots::Source;
 use skid_core::{Params, PluginContext, PluginEntry, PluginError, PluginResult, RobotId, Scan};
 
-use super::call::ErrorSlot;
+use super::call::{ErrorSlot, copy_lent};
 use super::instance::{Instance, registry_entry};
 use super::library::{PluginSpec, SourceFns};
 use crate::ffi::{AbiScan, AbiTransform, SourceInfo};
@@ -103,19 +103,6 @@ impl DynSource {
             imu_from_sensor: transform(lent.has_imu_from_sensor, &lent.imu_from_sensor)?,
         })
     }
-}
-
-/// A copy of `count` values at `pointer`.
-///
-/// # Safety
-///
-/// `pointer` must point to `count` initialised values when `count` is not zero.
-unsafe fn copy_lent<T: Copy>(pointer: *const T, count: usize) -> Vec<T> {
-    if count == 0 {
-        return Vec::new();
-    }
-    // SAFETY: the caller's guarantee.
-    unsafe { std::slice::from_raw_parts(pointer, count) }.to_vec()
 }
 
 impl Source for DynSource {

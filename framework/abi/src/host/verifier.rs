@@ -10,7 +10,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use skid_core::slots::{GraphView, LoopCandidate, Verdict, Verifier};
 use skid_core::{LoopId, Params, PluginContext, PluginEntry, PluginResult};
 
-use super::call::ErrorSlot;
+use super::call::{ErrorSlot, copy_lent};
 use super::graph::{abi_id, abi_loop, host_id, row_major};
 use super::instance::{Instance, registry_entry};
 use super::library::{PluginSpec, VerifierFns};
@@ -139,19 +139,6 @@ impl DynVerifier {
                 .collect(),
         })
     }
-}
-
-/// A copy of `count` values at `pointer`.
-///
-/// # Safety
-///
-/// `pointer` must point to `count` initialised values when `count` is not zero.
-unsafe fn copy_lent<T: Copy>(pointer: *const T, count: usize) -> Vec<T> {
-    if count == 0 {
-        return Vec::new();
-    }
-    // SAFETY: the caller's guarantee.
-    unsafe { std::slice::from_raw_parts(pointer, count) }.to_vec()
 }
 
 impl Verifier for DynVerifier {

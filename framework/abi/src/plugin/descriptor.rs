@@ -2,7 +2,7 @@
 
 use skid_msgs::Point;
 
-use super::glue::{Failure, create_with, destroy, guard, instance};
+use super::glue::{Failure, create_with, destroy, guard, instance, lent};
 use super::{ConfigError, InstanceContext};
 use crate::ffi::{
     AbiKeyframeId, AbiPlaceCandidate, AbiStr, DescriptorVTable, ErrorBuf, ExcludeFn, Handle, HostContext,
@@ -114,28 +114,10 @@ unsafe extern "C" fn new_index<T: DescriptorPlugin>(
     })
 }
 
-/// The values of a lent descriptor.
-///
-/// # Safety
-///
-/// `values` must be null (with `len` 0) or point to `len` floats valid for `'a`.
-unsafe fn values<'a>(values: *const f32, len: usize) -> Result<&'a [f32], Failure> {
-    if len == 0 {
-        return Ok(&[]);
-    }
-    if values.is_null() {
-        return Err(Failure::InvalidArgument(format!(
-            "{len} values at a null pointer"
-        )));
-    }
-    // SAFETY: the caller's guarantee.
-    Ok(unsafe { std::slice::from_raw_parts(values, len) })
-}
-
 unsafe extern "C" fn index_insert(
     index: Handle,
     id: AbiKeyframeId,
-    lent: *const f32,
+    values: *const f32,
     len: usize,
     error: *mut ErrorBuf,
 ) -> Status {
@@ -143,14 +125,14 @@ unsafe extern "C" fn index_insert(
         // SAFETY: a live index handle from `new_index`, called from one thread at a time.
         let lending = unsafe { instance::<IndexLending>(index) }?;
         // SAFETY: the host's descriptor is valid for this call.
-        let values = unsafe { values(lent, len) }?;
+        let values = unsafe { lent(values, len, "descriptor values") }?;
         lending.index.insert(id, values).map_err(Failure::Failed)
     })
 }
 
 unsafe extern "C" fn index_query(
     index: Handle,
-    lent: *const f32,
+    values: *const f32,
     len: usize,
     k: usize,
     exclude: ExcludeFn,
@@ -163,7 +145,7 @@ unsafe extern "C" fn index_query(
         // SAFETY: a live index handle from `new_index`, called from one thread at a time.
         let lending = unsafe { instance::<IndexLending>(index) }?;
         // SAFETY: the host's descriptor is valid for this call.
-        let values = unsafe { values(lent, len) }?;
+        let values = unsafe { lent(values, len, "descriptor values") }?;
         // SAFETY: the host passes null or outputs it owns for this call.
         let (Some(out_candidates), Some(out_count)) =
             (unsafe { out_candidates.as_mut() }, unsafe { out_count.as_mut() })

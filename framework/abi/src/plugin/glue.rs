@@ -144,6 +144,24 @@ unsafe fn write_error(error: *mut ErrorBuf, key: &str, message: &str) {
     }
 }
 
+/// A borrowed slice from a pointer and a count the host passed; null is allowed for an empty slice only.
+///
+/// # Safety
+///
+/// `pointer` must be null or point to `count` initialised values valid for `'a`.
+pub(super) unsafe fn lent<'a, V>(pointer: *const V, count: usize, what: &str) -> Result<&'a [V], Failure> {
+    if count == 0 {
+        return Ok(&[]);
+    }
+    if pointer.is_null() {
+        return Err(Failure::InvalidArgument(format!(
+            "{count} {what} at a null pointer"
+        )));
+    }
+    // SAFETY: the caller's guarantee.
+    Ok(unsafe { std::slice::from_raw_parts(pointer, count) })
+}
+
 /// Copies `text` into a host-owned text buffer, cut to its capacity at a character boundary.
 ///
 /// # Safety

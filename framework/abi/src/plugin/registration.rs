@@ -6,7 +6,7 @@
 
 use skid_msgs::Point;
 
-use super::glue::{Failure, create_with, destroy, guard, instance, write_text};
+use super::glue::{Failure, create_with, destroy, guard, instance, lent, write_text};
 use super::{ConfigError, InstanceContext};
 use crate::ffi::{
     AbiCloud, AbiStr, AbiTransform, CoarseResult, CoarseVTable, ErrorBuf, FineResult, FineVTable, Handle,
@@ -135,26 +135,6 @@ unsafe extern "C" fn create_fine<T: FinePlugin>(
     unsafe { create_with(config, context, out_handle, error, T::from_config) }
 }
 
-/// The points of a borrowed cloud.
-///
-/// # Safety
-///
-/// `cloud.points` must be null (with `count` 0) or point to `count` initialised points that stay valid
-/// and unchanged for `'a`.
-unsafe fn points<'a>(cloud: AbiCloud) -> Result<&'a [Point], Failure> {
-    if cloud.count == 0 {
-        return Ok(&[]);
-    }
-    if cloud.points.is_null() {
-        return Err(Failure::InvalidArgument(format!(
-            "a cloud of {} points at a null pointer",
-            cloud.count
-        )));
-    }
-    // SAFETY: the caller's guarantee; the layout is the same on both sides (checked by the fingerprint).
-    Ok(unsafe { std::slice::from_raw_parts(cloud.points, cloud.count) })
-}
-
 unsafe extern "C" fn align<T: CoarsePlugin>(
     handle: Handle,
     target: AbiCloud,
@@ -167,7 +147,12 @@ unsafe extern "C" fn align<T: CoarsePlugin>(
         // SAFETY: the host passes a live handle from `create` and calls it from one thread at a time.
         let plugin = unsafe { instance::<T>(handle) }?;
         // SAFETY: the host's clouds are valid for this call.
-        let (target, source) = unsafe { (points(target)?, points(source)?) };
+        let (target, source) = unsafe {
+            (
+                lent(target.points, target.count, "target points")?,
+                lent(source.points, source.count, "source points")?,
+            )
+        };
         // SAFETY: the host passes null or a transform valid for this call.
         let prior = unsafe { prior.as_ref() };
         // SAFETY: the host passes null or a result struct it owns for this call.
@@ -195,7 +180,7 @@ unsafe extern "C" fn prepare<T: FinePlugin>(
         // SAFETY: the host passes a live handle from `create` and calls it from one thread at a time.
         let plugin = unsafe { instance::<T>(handle) }?;
         // SAFETY: the host's cloud is valid for this call.
-        let cloud = unsafe { points(cloud) }?;
+        let cloud = unsafe { lent(cloud.points, cloud.count, "points") }?;
         if out_prepared.is_null() {
             return Err(Failure::InvalidArgument("prepare: null output handle".to_owned()));
         }

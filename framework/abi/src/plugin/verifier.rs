@@ -4,7 +4,7 @@
 
 use skid_msgs::Point;
 
-use super::glue::{Failure, create_with, destroy, guard, instance};
+use super::glue::{Failure, create_with, destroy, guard, instance, lent};
 use super::{ConfigError, InstanceContext};
 use crate::ffi::{
     AbiCloud, AbiGraph, AbiKeyframeId, AbiLoop, AbiRejection, AbiRelativePose, AbiStr, AbiTransform,
@@ -116,24 +116,6 @@ unsafe extern "C" fn create<T: VerifierPlugin>(
 ) -> Status {
     // SAFETY: the host's pointers, passed on unchanged.
     unsafe { create_with(config, context, out_handle, error, lending::<T>) }
-}
-
-/// A borrowed slice from a pointer and a count; null is allowed for an empty slice only.
-///
-/// # Safety
-///
-/// `pointer` must be null or point to `count` initialised values valid for `'a`.
-unsafe fn lent<'a, V>(pointer: *const V, count: usize, what: &str) -> Result<&'a [V], Failure> {
-    if count == 0 {
-        return Ok(&[]);
-    }
-    if pointer.is_null() {
-        return Err(Failure::InvalidArgument(format!(
-            "{count} {what} at a null pointer"
-        )));
-    }
-    // SAFETY: the caller's guarantee.
-    Ok(unsafe { std::slice::from_raw_parts(pointer, count) })
 }
 
 unsafe extern "C" fn submit<T: VerifierPlugin>(
