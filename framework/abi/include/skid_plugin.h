@@ -122,6 +122,33 @@ typedef uint32_t SkidSlotKind;
 #define SkidSlotKind_TRANSPORT 8
 
 /**
+ * What a plugin's code tolerates from threads, declared per plugin.
+ *
+ * SKiD calls one instance from one thread at a time, but it moves instances between threads (each
+ * robot's stages run on worker threads) and, with several robots in one process, runs different
+ * instances of the same plugin at the same time.
+ */
+typedef uint32_t SkidThreading;
+/**
+ * Instances share nothing mutable: any instance may be called from any thread, and different
+ * instances may run at the same time. Every Rust plugin is this (the slot traits are `Send` and
+ * statics are `Sync`).
+ */
+#define SkidThreading_INDEPENDENT_INSTANCES 0
+/**
+ * The plugin keeps mutable state shared by its instances (globals, a library that is not
+ * re-entrant): the host serialises every call to any of its instances, `create` and `destroy`
+ * included, so that at most one runs at a time in the process.
+ */
+#define SkidThreading_SERIAL 1
+/**
+ * An instance must only ever be called from the thread that created it (thread-local state, a
+ * thread-bound interpreter or context). SKiD moves instances between threads, so the host
+ * refuses such a plugin when it loads the library.
+ */
+#define SkidThreading_PINNED_TO_CREATING_THREAD 2
+
+/**
  * The declaration of one plugin in a library.
  */
 typedef struct SkidPluginDecl {
@@ -130,9 +157,10 @@ typedef struct SkidPluginDecl {
    */
   SkidSlotKind slot_kind;
   /**
-   * Explicit padding.
+   * What the plugin's code tolerates from threads; zero (the padding of ABI 2.0) is
+   * [`Threading::INDEPENDENT_INSTANCES`].
    */
-  uint32_t reserved;
+  SkidThreading threading;
   /**
    * The registry name.
    */

@@ -338,3 +338,62 @@ fn what_a_plugin_returns_is_checked_before_it_reaches_the_pipeline() {
         );
     }
 }
+
+/// Runs the two-thread fine check on the fixture's `liar` with a racy shared scratch buffer, from the
+/// library at `path`; the panic message when the check fails.
+fn racy_liar_under_threads(path: &Path) -> Option<String> {
+    let liar = load_library(path).unwrap().plugin("liar").unwrap();
+    let params = Params::from_toml_str("behaviour = \"racy\"").unwrap();
+    let make = || -> Box<dyn FineRegistration> {
+        Box::new(
+            liar.create_fine(&params, &PluginContext::default())
+                .unwrap()
+                .unwrap(),
+        )
+    };
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        skid_testkit::threads::fine_instances_agree_under_threads(make)
+    }))
+    .err()
+    .map(|payload| payload.downcast_ref::<String>().cloned().unwrap_or_default())
+}
+
+#[test]
+fn shared_state_is_caught_under_threads_unless_the_plugin_declares_itself_serial() {
+    let independent = compile_fixture("skid_fixture_racy", &[]);
+    assert!(
+        !load_library(&independent)
+            .unwrap()
+            .plugin("liar")
+            .unwrap()
+            .is_serial()
+    );
+    let failure = racy_liar_under_threads(&independent)
+        .expect("instances sharing a scratch buffer disagree when they run at the same time");
+    assert!(
+        failure.contains("differs from the same call alone") && failure.contains("declaring itself serial"),
+        "{failure}"
+    );
+
+    let serial = compile_fixture("skid_fixture_serial", &["-DSKID_FIXTURE_SERIAL"]);
+    assert!(load_library(&serial).unwrap().plugin("liar").unwrap().is_serial());
+    assert_eq!(
+        racy_liar_under_threads(&serial),
+        None,
+        "the host keeps a serial plugin's calls apart"
+    );
+}
+
+#[test]
+fn a_plugin_pinned_to_its_creating_thread_is_refused_naming_the_library_and_plugin() {
+    let path = compile_fixture("skid_fixture_pinned", &["-DSKID_FIXTURE_PINNED"]);
+    let error = load_library(&path).unwrap_err();
+    assert!(matches!(error, AbiError::Threading { .. }), "{error}");
+    let text = error.to_string();
+    assert!(
+        text.contains("libskid_fixture_pinned.so")
+            && text.contains("`liar`")
+            && text.contains("stay on the thread that created it"),
+        "{text}"
+    );
+}

@@ -28,8 +28,12 @@ fn plugins_check_runs_the_fine_suite_on_the_cpp_plugin() {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(stdout.contains("[fine] point_to_plane_icp"), "{stdout}");
-    assert_eq!(stdout.matches("  PASS  ").count(), 3, "{stdout}");
-    assert!(stdout.contains("3 checks, 3 passed, 0 failed"), "{stdout}");
+    assert_eq!(stdout.matches("  PASS  ").count(), 4, "{stdout}");
+    assert!(
+        stdout.contains("PASS  two instances on two threads at once"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("4 checks, 4 passed, 0 failed"), "{stdout}");
 }
 
 fn run_with_cpp_fine(out: &std::path::Path, extra: &[&str]) -> Output {

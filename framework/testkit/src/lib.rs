@@ -12,6 +12,9 @@
 //! | back-end | [`backend::check_backend`] | closes a loop; removing it restores the odometry solution |
 //! | transport | [`transport::check_transport`] | a message round-trips to one peer and to all peers |
 //!
+//! For the slots that carry the heavy computation (descriptor, coarse, fine), [`threads`] checks that
+//! two instances running on two threads at once give what each gives alone.
+//!
 //! The synthetic data comes from [`scene`]: a deterministic outdoor-like scene sampled anew for every
 //! scan, so no two scans share points.
 
@@ -24,6 +27,7 @@ pub mod odometry;
 pub mod registration;
 pub mod scene;
 pub mod source;
+pub mod threads;
 pub mod transport;
 pub mod verifier;
 

@@ -234,3 +234,8 @@ fn noise_bounds_scale_with_the_voxel_and_are_clamped() {
     };
     assert_eq!(unclamped.noise_bound_m(1.0), 2.0);
 }
+
+#[test]
+fn instances_on_two_threads_agree_with_each_alone() {
+    skid_testkit::threads::coarse_instances_agree_under_threads(|| Box::new(matcher()));
+}

@@ -157,3 +157,14 @@ fn registers_with_defaults_and_refuses_bad_parameters() {
         assert!(error.contains(PLUGIN_NAME), "{error}");
     }
 }
+
+#[test]
+fn instances_on_two_threads_agree_with_each_alone() {
+    let config = RansacConfig {
+        voxel_size_m: 1.0,
+        ..RansacConfig::default()
+    };
+    skid_testkit::threads::coarse_instances_agree_under_threads(|| {
+        Box::new(RansacMatcher::new(config.clone(), &context()).unwrap())
+    });
+}

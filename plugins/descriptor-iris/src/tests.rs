@@ -184,3 +184,10 @@ fn conformance_default() {
         &DescriptorExpectations::default(),
     );
 }
+
+#[test]
+fn instances_on_two_threads_agree_with_each_alone() {
+    skid_testkit::threads::descriptor_instances_agree_under_threads(|| {
+        Box::new(IrisDescriptor::new(IrisConfig::default()).unwrap())
+    });
+}

@@ -191,3 +191,10 @@ fn conformance_default() {
         &DescriptorExpectations::default(),
     );
 }
+
+#[test]
+fn instances_on_two_threads_agree_with_each_alone() {
+    skid_testkit::threads::descriptor_instances_agree_under_threads(|| {
+        Box::new(ScanContextDescriptor::new(ScanContextConfig::default()).unwrap())
+    });
+}

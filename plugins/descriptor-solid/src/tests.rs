@@ -330,3 +330,10 @@ fn conformance_narrow_vertical_fov() {
         &DescriptorExpectations::default(),
     );
 }
+
+#[test]
+fn instances_on_two_threads_agree_with_each_alone() {
+    skid_testkit::threads::descriptor_instances_agree_under_threads(|| {
+        Box::new(SolidDescriptor::new(SolidConfig::default()).unwrap())
+    });
+}

@@ -420,7 +420,7 @@ SkidStatus destroy(SkidHandle handle, SkidErrorBuf* error) {
 const SkidFineVTable kTable = {create, prepare, prepared_points, refine, destroy_prepared, destroy};
 
 const SkidPluginDecl kPlugins[] = {
-    {SkidSlotKind_FINE, 0, text(kName), text(kSummary), text(kDefaultConfig), &kTable},
+    {SkidSlotKind_FINE, SkidThreading_INDEPENDENT_INSTANCES, text(kName), text(kSummary), text(kDefaultConfig), &kTable},
 };
 
 const SkidLibraryDecl kLibrary = {

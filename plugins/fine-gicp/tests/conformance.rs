@@ -49,3 +49,16 @@ fn icp_conforms() {
 fn plane_icp_conforms() {
     check(GicpConfig::with_variant(Variant::PlaneIcp));
 }
+
+#[test]
+fn instances_on_two_threads_agree_with_each_alone() {
+    let context = PluginContext {
+        threads: 2,
+        ..PluginContext::default()
+    };
+    for variant in [Variant::Gicp, Variant::Vgicp, Variant::PlaneIcp] {
+        skid_testkit::threads::fine_instances_agree_under_threads(|| {
+            Box::new(GicpRegistration::new(GicpConfig::with_variant(variant), &context).unwrap())
+        });
+    }
+}

@@ -156,6 +156,30 @@ impl SlotKind {
     pub const TRANSPORT: SlotKind = SlotKind(8);
 }
 
+/// What a plugin's code tolerates from threads, declared per plugin.
+///
+/// SKiD calls one instance from one thread at a time, but it moves instances between threads (each
+/// robot's stages run on worker threads) and, with several robots in one process, runs different
+/// instances of the same plugin at the same time.
+#[repr(transparent)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Threading(pub u32);
+
+impl Threading {
+    /// Instances share nothing mutable: any instance may be called from any thread, and different
+    /// instances may run at the same time. Every Rust plugin is this (the slot traits are `Send` and
+    /// statics are `Sync`).
+    pub const INDEPENDENT_INSTANCES: Threading = Threading(0);
+    /// The plugin keeps mutable state shared by its instances (globals, a library that is not
+    /// re-entrant): the host serialises every call to any of its instances, `create` and `destroy`
+    /// included, so that at most one runs at a time in the process.
+    pub const SERIAL: Threading = Threading(1);
+    /// An instance must only ever be called from the thread that created it (thread-local state, a
+    /// thread-bound interpreter or context). SKiD moves instances between threads, so the host
+    /// refuses such a plugin when it loads the library.
+    pub const PINNED_TO_CREATING_THREAD: Threading = Threading(2);
+}
+
 /// Log levels on the wire: 1 = error, 2 = warn, 3 = info, 4 = debug, 5 = trace.
 pub mod level {
     pub const ERROR: u32 = 1;
@@ -207,8 +231,9 @@ unsafe impl Sync for LibraryDecl {}
 pub struct PluginDecl {
     /// The slot the plugin fills.
     pub slot_kind: SlotKind,
-    /// Explicit padding.
-    pub reserved: u32,
+    /// What the plugin's code tolerates from threads; zero (the padding of ABI 2.0) is
+    /// [`Threading::INDEPENDENT_INSTANCES`].
+    pub threading: Threading,
     /// The registry name.
     pub name: AbiStr,
     /// One line for `skid plugins`.

@@ -43,7 +43,7 @@ impl DynBackend {
 
     /// Runs one call with a fresh error slot and maps its status.
     fn call(&self, body: impl FnOnce(*mut crate::ffi::ErrorBuf) -> Status) -> PluginResult<()> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         let mut error = ErrorSlot::new();
         let status = body(error.as_mut_ptr());
         error

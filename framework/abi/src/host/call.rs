@@ -131,6 +131,7 @@ pub(crate) fn create_instance(
     };
     let mut handle: Handle = std::ptr::null_mut();
     let mut error = ErrorSlot::new();
+    let _serial = plugin.serialise();
     // SAFETY: every pointer is to host data valid for the whole call; `create` is a checked, non-null
     // function of a library that stays loaded.
     let status = unsafe {
@@ -155,6 +156,7 @@ pub(crate) fn create_instance(
 /// Calls a plugin's `destroy`; a failure there can only be logged.
 pub(crate) fn destroy_instance(plugin: &PluginSpec, destroy: Checked<DestroyFn>, handle: NonNull<c_void>) {
     let mut error = ErrorSlot::new();
+    let _serial = plugin.serialise();
     // SAFETY: the handle came from this plugin's `create` and is destroyed exactly once.
     let status = unsafe { destroy(handle.as_ptr(), error.as_mut_ptr()) };
     if let Err(error) = error.result(status) {

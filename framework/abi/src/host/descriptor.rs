@@ -42,7 +42,7 @@ impl DynDescriptor {
 
     /// The descriptor length this instance produces.
     pub fn descriptor_len(&mut self) -> PluginResult<usize> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         let mut len = 0_usize;
         let mut error = ErrorSlot::new();
         // SAFETY: a live handle of this library and host-owned outputs valid for the call.

@@ -5,6 +5,8 @@ use std::cell::Cell;
 use std::ffi::c_void;
 use std::ptr::NonNull;
 
+use parking_lot::ReentrantMutexGuard;
+
 use skid_core::{Params, PluginContext, PluginEntry, PluginError, PluginResult};
 
 use super::call::{CallError, create_instance, destroy_instance, validate_params};
@@ -38,8 +40,10 @@ pub(super) struct Instance {
     poisoned: Cell<bool>,
 }
 
-// SAFETY: the plugin type behind the handle is `Send` (required by every slot trait of the plugin side
-// and by the C header's contract), and the wrappers serialise calls on one instance with `&mut self`.
+// SAFETY: the plugin declared whether its instances may move between threads: a plugin pinned to its
+// creating thread is refused at load, a serial one is called under its lock, and every other one is
+// `Send` by declaration (and, for Rust plugins, by the slot traits). The wrappers serialise calls on
+// one instance with `&mut self`.
 unsafe impl Send for Instance {}
 
 impl std::fmt::Debug for Instance {
@@ -85,15 +89,16 @@ impl Instance {
         }
     }
 
-    /// An error when an earlier call panicked.
-    pub(super) fn check_poison(&self) -> PluginResult<()> {
+    /// Prepares a call: an error when an earlier call panicked, otherwise the plugin's serial lock
+    /// (for a plugin declared serial) to hold until the call's outputs are read.
+    pub(super) fn enter(&self) -> PluginResult<Option<ReentrantMutexGuard<'static, ()>>> {
         if self.poisoned.get() {
             return Err(PluginError::failed(
                 &self.plugin.name,
                 "this instance panicked in an earlier call and is unusable; create a new one",
             ));
         }
-        Ok(())
+        Ok(self.plugin.serialise())
     }
 
     /// The error for a failed call, poisoning the instance on a panic.

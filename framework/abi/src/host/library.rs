@@ -8,6 +8,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+use parking_lot::{ReentrantMutex, ReentrantMutexGuard};
+
 use skid_core::{Params, Slot};
 
 use super::{AbiError, logging};
@@ -16,7 +18,7 @@ use crate::ffi::{
     BackendVTable, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable, DestroyFn,
     DestroyPreparedFn, FineVTable, IndexInsertFn, IndexLenFn, IndexQueryFn, LibraryDecl, NewIndexFn,
     NextScanFn, OdometryVTable, OptimizeFn, PluginDecl, PrepareFn, PreparedPointsFn, RefineFn, RegisterFn,
-    RemoveLoopFn, SlotKind, SourceInfoFn, SourceVTable, Status, SubmitFn, VerifierVTable,
+    RemoveLoopFn, SlotKind, SourceInfoFn, SourceVTable, Status, SubmitFn, Threading, VerifierVTable,
 };
 use crate::{ABI_VERSION, ENTRY_SYMBOL, FRAMEWORK_VERSION};
 
@@ -56,9 +58,24 @@ pub(crate) struct PluginSpec {
     /// The library file, for errors and `skid plugins`.
     pub(crate) path: PathBuf,
     pub(crate) table: SlotTable,
+    /// Held across every call into a plugin declared [`Threading::SERIAL`]; `None` for the others.
+    /// Re-entrant, because a call's clean-up (freeing what a failed call lent) may call the plugin
+    /// again on the same thread.
+    serial: Option<ReentrantMutex<()>>,
 }
 
 impl PluginSpec {
+    /// Waits until no other thread is inside this plugin, for a plugin declared serial; a no-op for
+    /// the others. Hold the guard for the whole call.
+    pub(crate) fn serialise(&self) -> Option<ReentrantMutexGuard<'_, ()>> {
+        self.serial.as_ref().map(ReentrantMutex::lock)
+    }
+
+    /// Whether every call to this plugin's instances is serialised.
+    pub(crate) fn is_serial(&self) -> bool {
+        self.serial.is_some()
+    }
+
     /// The slot the plugin fills.
     pub(crate) fn slot(&self) -> Slot {
         match self.table {
@@ -262,6 +279,11 @@ fn check(path: &Path, library: &libloading::Library) -> Result<(String, String, 
                 name,
                 kind,
             },
+            Refusal::Threading { name, reason } => AbiError::Threading {
+                path: path.to_owned(),
+                name,
+                reason,
+            },
         })?;
         if plugins.iter().any(|other| other.name == spec.name) {
             return Err(malformed(format!("two plugins are named `{}`", spec.name)));
@@ -298,6 +320,7 @@ fn bad_text(field: &str) -> String {
 enum Refusal {
     Malformed(String),
     UnsupportedSlot { name: String, kind: u32 },
+    Threading { name: String, reason: String },
 }
 
 impl From<String> for Refusal {
@@ -320,6 +343,28 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
     let default_config = text(decl.default_config).ok_or_else(|| bad_text("default config"))?;
     let defaults = Params::from_toml_str(&default_config)
         .map_err(|error| format!("`{name}`: the default config is not TOML: {error}"))?;
+    let serial = match decl.threading {
+        Threading::INDEPENDENT_INSTANCES => None,
+        Threading::SERIAL => Some(ReentrantMutex::new(())),
+        Threading::PINNED_TO_CREATING_THREAD => {
+            return Err(Refusal::Threading {
+                name,
+                reason: "declares that an instance must stay on the thread that created it, but SKiD \
+                         moves instances between worker threads; declare SERIAL if the plugin only \
+                         needs one call at a time, or keep its thread-bound state out of the instance"
+                    .to_owned(),
+            });
+        }
+        Threading(other) => {
+            return Err(Refusal::Threading {
+                name,
+                reason: format!(
+                    "declares threading model {other}, which this host does not know (0 = independent \
+                     instances, 1 = serial, 2 = pinned to the creating thread)"
+                ),
+            });
+        }
+    };
     let null_entry = |slot: &str| format!("`{name}`: the {slot} function table has a null entry");
     let table = match decl.slot_kind {
         SlotKind::BACKEND => {
@@ -499,5 +544,6 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
         defaults,
         path: path.to_owned(),
         table,
+        serial,
     })
 }

@@ -80,6 +80,14 @@ pub enum AbiError {
     #[error("{}: plugin `{name}` has slot kind {kind}, which this host cannot load (supported: source, odometry, descriptor, coarse, fine, verifier, back-end)", path.display())]
     UnsupportedSlot { path: PathBuf, name: String, kind: u32 },
 
+    /// The plugin declares a threading model this host cannot honour.
+    #[error("{}: plugin `{name}` {reason}", path.display())]
+    Threading {
+        path: PathBuf,
+        name: String,
+        reason: String,
+    },
+
     /// The declaration is broken: a null pointer, a non-UTF-8 string, an unparsable default config.
     #[error("{}: malformed plugin declaration: {reason}", path.display())]
     Malformed { path: PathBuf, reason: String },
@@ -176,6 +184,12 @@ impl LoadedPlugin {
     /// The file the plugin was loaded from (canonical).
     pub fn path(&self) -> &'static Path {
         &self.plugin.path
+    }
+
+    /// Whether the plugin declared itself serial, so that the host runs one call into any of its
+    /// instances at a time.
+    pub fn is_serial(&self) -> bool {
+        self.plugin.is_serial()
     }
 
     /// The default parameters, as the plugin declares them.

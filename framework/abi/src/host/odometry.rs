@@ -51,7 +51,7 @@ impl DynOdometry {
 
 impl Odometry for DynOdometry {
     fn register(&mut self, scan: &Scan) -> PluginResult<OdometryUpdate> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         let lent = AbiScan {
             robot: scan.robot.0,
             sequence: scan.sequence,

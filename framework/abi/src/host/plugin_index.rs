@@ -38,7 +38,7 @@ impl PluginIndex {
         fns: DescriptorFns,
         descriptor: &Instance,
     ) -> PluginResult<Option<Self>> {
-        descriptor.check_poison()?;
+        let _serial = descriptor.enter()?;
         let mut handle = std::ptr::null_mut();
         let mut error = ErrorSlot::new();
         // SAFETY: a live descriptor handle of this plugin and host-owned outputs valid for the call.
@@ -63,7 +63,7 @@ impl PluginIndex {
 
 impl DescriptorIndex for PluginIndex {
     fn insert(&mut self, id: KeyframeId, descriptor: DescriptorBuf) -> PluginResult<()> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         self.check_kind(&descriptor)?;
         let id = AbiKeyframeId {
             robot: id.robot.0,
@@ -89,7 +89,7 @@ impl DescriptorIndex for PluginIndex {
         k: usize,
         exclude: &dyn Fn(KeyframeId) -> bool,
     ) -> PluginResult<Vec<PlaceCandidate>> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         self.check_kind(descriptor)?;
         let (mut candidates, mut count) = (std::ptr::null::<AbiPlaceCandidate>(), 0_usize);
         let mut error = ErrorSlot::new();
@@ -145,6 +145,7 @@ impl DescriptorIndex for PluginIndex {
     fn len(&self) -> usize {
         let mut len = 0_usize;
         let mut error = ErrorSlot::new();
+        let _serial = self.instance.plugin.serialise();
         // SAFETY: a live index handle of this plugin and host-owned outputs valid for the call.
         let status =
             unsafe { (self.fns.index_len)(self.instance.handle.as_ptr(), &mut len, error.as_mut_ptr()) };

@@ -76,7 +76,7 @@ impl CoarseRegistration for DynCoarse {
         source: CloudView<'_>,
         prior: Option<&Pose>,
     ) -> PluginResult<CoarseAlignment> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         let prior = prior.map(abi_from_pose);
         let mut out = CoarseResult {
             target_from_source: AbiTransform::IDENTITY,
@@ -129,6 +129,7 @@ unsafe impl Sync for DynPrepared {}
 impl Drop for DynPrepared {
     fn drop(&mut self) {
         let mut error = ErrorSlot::new();
+        let _serial = self.plugin.serialise();
         // SAFETY: the handle came from this plugin's `prepare` and is freed exactly once, here.
         let status = unsafe { (self.destroy)(self.handle.as_ptr(), error.as_mut_ptr()) };
         if let Err(error) = error.result(status) {
@@ -189,7 +190,7 @@ impl DynFine {
 
 impl FineRegistration for DynFine {
     fn prepare(&mut self, cloud: CloudView<'_>) -> PluginResult<PreparedCloud> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         let mut handle: Handle = std::ptr::null_mut();
         let mut error = ErrorSlot::new();
         // SAFETY: a live handle of this plugin; the cloud and the output are host data valid for the call.
@@ -226,7 +227,7 @@ impl FineRegistration for DynFine {
         source: &PreparedCloud,
         guess: &Pose,
     ) -> PluginResult<FineAlignment> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         let (target, source) = (self.own(target)?, self.own(source)?);
         let guess = abi_from_pose(guess);
         let mut failure = vec![0_u8; FAILURE_CAPACITY];

@@ -50,6 +50,7 @@ impl DynSource {
         };
         let mut info = SourceInfo::default();
         let mut error = ErrorSlot::new();
+        let _serial = plugin.serialise();
         // SAFETY: a live handle of this plugin and a host-owned output.
         let status = unsafe { (fns.info)(source.instance.handle.as_ptr(), &mut info, error.as_mut_ptr()) };
         error
@@ -107,7 +108,7 @@ impl DynSource {
 
 impl Source for DynSource {
     fn next_scan(&mut self) -> PluginResult<Option<Scan>> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         let mut lent = AbiScan {
             robot: 0,
             sequence: 0,

@@ -143,7 +143,7 @@ impl DynVerifier {
 
 impl Verifier for DynVerifier {
     fn submit(&mut self, candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> PluginResult<Verdict> {
-        self.instance.check_poison()?;
+        let _serial = self.instance.enter()?;
         let keyframes: Vec<AbiKeyframeId> = graph.keyframes().into_iter().map(abi_id).collect();
         let loops: Vec<AbiLoop> = graph.loops().iter().map(abi_loop).collect();
         let context: &dyn GraphView = graph;

@@ -14,7 +14,7 @@ use super::{ConfigError, InstanceContext};
 use super::{logger, panic_hook};
 use crate::ffi::{
     AbiStr, EnabledFn, ErrorBuf, Handle, HostContext, LibraryDecl, LogFn, PluginDecl, SlotKind, Status,
-    TextBuf,
+    TextBuf, Threading,
 };
 
 /// A failure inside an exported call, before it is flattened into a status and the error buffer.
@@ -55,7 +55,7 @@ pub const fn plugin_decl<T>(
 ) -> PluginDecl {
     PluginDecl {
         slot_kind,
-        reserved: 0,
+        threading: Threading::INDEPENDENT_INSTANCES,
         name: AbiStr::from_static(name),
         summary: AbiStr::from_static(summary),
         default_config: AbiStr::from_static(default_config),

@@ -3,18 +3,27 @@
  *   behaviour = "long_failure"     refine claims a failure text longer than the host's buffer;
  *   behaviour = "scaled"           refine returns a matrix that is not a rigid motion;
  *   behaviour = "fails"            refine returns FAILED with a message;
- *   behaviour = "honest"           refine returns the guess, converged.
+ *   behaviour = "honest"           refine returns the guess, converged;
+ *   behaviour = "racy"             refine returns the guess through a global scratch buffer it sleeps
+ *                                  on, so instances running at the same time read each other's guess.
  * A second plugin, `overcounting_liar`, has prepared clouds that claim a point more than they were given.
  * Compiled with -DSKID_FIXTURE_NULL_ENTRY, the function table has a null `refine`, and with
  * -DSKID_FIXTURE_WRONG_LAYOUT the declaration carries another wire-layout fingerprint: either library
- * must be refused at load time. */
+ * must be refused at load time. -DSKID_FIXTURE_SERIAL declares `liar` serial (the host must then keep
+ * its racy calls apart) and -DSKID_FIXTURE_PINNED declares it pinned to its creating thread (refused). */
+
+#define _POSIX_C_SOURCE 200809L
 
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "skid_plugin.h"
 
-enum Behaviour { HONEST, LONG_FAILURE, SCALED, FAILS };
+enum Behaviour { HONEST, LONG_FAILURE, SCALED, FAILS, RACY };
+
+/* The racy behaviour's scratch buffer, shared by every instance: the defect the threading checks catch. */
+static SkidAbiTransform SCRATCH;
 
 typedef struct Instance {
     enum Behaviour behaviour;
@@ -57,6 +66,7 @@ static SkidStatus create(SkidAbiStr config, const SkidHostContext *context, Skid
     if (contains(config, "long_failure")) instance->behaviour = LONG_FAILURE;
     if (contains(config, "scaled")) instance->behaviour = SCALED;
     if (contains(config, "\"fails\"")) instance->behaviour = FAILS;
+    if (contains(config, "racy")) instance->behaviour = RACY;
     *out_handle = instance;
     return SkidStatus_OK;
 }
@@ -102,6 +112,13 @@ static SkidStatus refine(SkidHandle handle, SkidHandle target, SkidHandle source
             break;
         case FAILS:
             return fail(error, SkidStatus_FAILED, "the liar gives up");
+        case RACY: {
+            struct timespec pause = {0, 2000000};
+            SCRATCH = *guess;
+            nanosleep(&pause, NULL);
+            out->target_from_source = SCRATCH;
+            break;
+        }
         default:
             break;
     }
@@ -142,6 +159,11 @@ static SkidLibraryDecl LIBRARY;
 
 __attribute__((visibility("default"))) const SkidLibraryDecl *skid_plugin_entry(void) {
     PLUGINS[0].slot_kind = SkidSlotKind_FINE;
+#if defined(SKID_FIXTURE_SERIAL)
+    PLUGINS[0].threading = SkidThreading_SERIAL;
+#elif defined(SKID_FIXTURE_PINNED)
+    PLUGINS[0].threading = SkidThreading_PINNED_TO_CREATING_THREAD;
+#endif
     PLUGINS[0].name = text("liar");
     PLUGINS[0].summary = text("A fine registration that lies as told (test fixture)");
     PLUGINS[0].default_config = text("behaviour = \"honest\"\n");

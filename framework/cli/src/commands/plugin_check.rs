@@ -19,6 +19,10 @@ use skid_testkit::descriptor::{DescriptorExpectations, check_descriptor};
 use skid_testkit::odometry::{OdometryExpectations, check_odometry};
 use skid_testkit::registration::{RegistrationExpectations, coarse_checks, fine_checks};
 use skid_testkit::source::check_source;
+use skid_testkit::threads::{
+    coarse_instances_agree_under_threads, descriptor_instances_agree_under_threads,
+    fine_instances_agree_under_threads,
+};
 use skid_testkit::verifier::check_verifier;
 
 /// The bar a fine registration must clear: the built-in GICP's (1 m and 10° off, back within 5 cm and 0.5°).
@@ -36,6 +40,9 @@ const COARSE_EXPECT: RegistrationExpectations = RegistrationExpectations {
     max_translation_error_m: 0.5,
     max_rotation_error_deg: 2.0,
 };
+
+/// The name of the check that runs two instances on two threads at once.
+const TWO_THREADS: &str = "two instances on two threads at once give what each gives alone";
 
 /// How many scans of a source the check reads at most.
 const SOURCE_MAX_SCANS: usize = 200;
@@ -60,7 +67,17 @@ pub fn check_library(path: &Path) -> Result<()> {
     );
     let mut outcomes = Vec::new();
     for plugin in library.plugins() {
-        println!("[{}] {}: {}", plugin.slot(), plugin.name(), plugin.summary());
+        let serial = if plugin.is_serial() {
+            " (declared serial: the host runs one call into it at a time)"
+        } else {
+            ""
+        };
+        println!(
+            "[{}] {}: {}{serial}",
+            plugin.slot(),
+            plugin.name(),
+            plugin.summary()
+        );
         outcomes.extend(check_plugin(&plugin));
     }
     let failed = outcomes
@@ -125,6 +142,13 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
             Some(Ok(mut fine)) => fine_checks(FINE_PERTURBATION_M, FINE_PERTURBATION_DEG, FINE_EXPECT)
                 .into_iter()
                 .map(|(check, body)| run_check(check, || body(&mut fine)))
+                .chain(std::iter::once_with(|| {
+                    run_check(TWO_THREADS, || {
+                        fine_instances_agree_under_threads(|| {
+                            Box::new(created(plugin.create_fine(&defaults, &context)))
+                        })
+                    })
+                }))
                 .collect(),
             Some(Err(error)) => not_created(name, error),
             None => Vec::new(),
@@ -133,6 +157,13 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
             Some(Ok(mut coarse)) => coarse_checks(COARSE_YAWS_DEG.to_vec(), COARSE_OFFSET_M, COARSE_EXPECT)
                 .into_iter()
                 .map(|(check, body)| run_check(check, || body(&mut coarse)))
+                .chain(std::iter::once_with(|| {
+                    run_check(TWO_THREADS, || {
+                        coarse_instances_agree_under_threads(|| {
+                            Box::new(created(plugin.create_coarse(&defaults, &context)))
+                        })
+                    })
+                }))
                 .collect(),
             Some(Err(error)) => not_created(name, error),
             None => Vec::new(),
@@ -186,16 +217,27 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
                 yaw_hint_tolerance_deg: None,
                 ..DescriptorExpectations::default()
             };
-            let outcome = run_check("yaw invariance, retrieval, degenerate clouds", || {
-                check_descriptor(|| make_descriptor(plugin, &defaults, &context), &expect)
-            });
-            vec![outcome]
+            vec![
+                run_check("yaw invariance, retrieval, degenerate clouds", || {
+                    check_descriptor(|| make_descriptor(plugin, &defaults, &context), &expect)
+                }),
+                run_check(TWO_THREADS, || {
+                    descriptor_instances_agree_under_threads(|| make_descriptor(plugin, &defaults, &context))
+                }),
+            ]
         }
         other => not_created(
             name,
             format!("no conformance suite runs for the {other} slot through the C ABI"),
         ),
     }
+}
+
+/// An instance the suite made again after it was built once; a failure now fails the check.
+#[allow(clippy::expect_used)] // Inside a check: a panic is the check's way to fail, caught by `run_check`.
+fn created<T>(made: Option<skid_core::PluginResult<T>>) -> T {
+    made.expect("the same slot as before")
+        .expect("builds from its default parameters")
 }
 
 /// A fresh odometry for the suite; a failure here fails the check (it was built once before).
