@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod header;
+pub mod imports;
 pub mod python;
 pub mod results;
 pub mod tidy;

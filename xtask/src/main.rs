@@ -3,7 +3,7 @@
 //! - `ci`: format check, clippy with warnings denied, and the test suite with `skid`'s `rerun` feature on
 //!   (what `.ci/run` calls), with `SKID_PYTHON` pointing at a venv of the pinned Python packages the tests
 //!   use as independent writers and readers;
-//! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code);
+//! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code, no import loops);
 //! - `c-header [--check]`: the plugins' C header, generated from skid-abi with cbindgen (CI checks it);
 //! - `bench <profile>`: runs a benchmark profile in release mode, writing `target/bench/<profile>/`
 //!   (with `--config configs/bench/<profile>.toml` when that file exists);
@@ -135,7 +135,20 @@ fn ci() -> Result<()> {
 }
 
 fn tidy() -> Result<()> {
-    let violations = xtask::tidy::check(&xtask::workspace_root())?;
+    let root = xtask::workspace_root();
+    let mut violations: Vec<String> = xtask::tidy::check(&root)?
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    for crate_dir in xtask::imports::CHECKED_CRATES {
+        let graph = xtask::imports::import_graph(&root.join(crate_dir))?;
+        for members in xtask::imports::loops(&graph) {
+            violations.push(format!(
+                "{crate_dir}: these modules import each other in a loop: {}",
+                members.join(", ")
+            ));
+        }
+    }
     if violations.is_empty() {
         eprintln!("xtask: tidy ok");
         return Ok(());

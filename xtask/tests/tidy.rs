@@ -8,3 +8,12 @@ fn workspace_is_tidy() {
     let report: Vec<String> = violations.iter().map(ToString::to_string).collect();
     assert!(report.is_empty(), "tidy violations:\n{}", report.join("\n"));
 }
+
+#[test]
+fn checked_crates_have_no_import_loops() {
+    for crate_dir in xtask::imports::CHECKED_CRATES {
+        let graph = xtask::imports::import_graph(&xtask::workspace_root().join(crate_dir)).unwrap();
+        let loops = xtask::imports::loops(&graph);
+        assert!(loops.is_empty(), "{crate_dir}: import loops {loops:?}");
+    }
+}

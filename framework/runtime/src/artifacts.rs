@@ -10,7 +10,7 @@ use skid_eval::plot;
 use skid_eval::plot::{LoopLine, PlotOptions, RobotTrack, RunPlotData};
 use skid_io::g2o::{Edge, PoseGraph, write_g2o_3d};
 
-use crate::RuntimeError;
+use crate::error::{RuntimeError, output_error};
 use crate::host::RobotHost;
 use crate::metrics::alpha_frames;
 use crate::settings::{information_from_covariance, loop_information};
@@ -21,13 +21,6 @@ pub const MAP_VOXEL_M: f32 = 0.5;
 /// g2o vertex id of a keyframe: the robot in the millions, so ids stay readable.
 pub fn g2o_vertex_id(id: KeyframeId) -> u64 {
     u64::from(id.robot.0) * 1_000_000 + u64::from(id.index)
-}
-
-pub(crate) fn output_error(path: &Path, message: impl ToString) -> RuntimeError {
-    RuntimeError::Output {
-        path: path.to_owned(),
-        message: message.to_string(),
-    }
 }
 
 /// Where each robot's map frame sits in robot 0's; `None` for robots robot 0 never closed a loop with.

@@ -34,7 +34,7 @@ impl CatchUp {
                 Message::Descriptors(batch) if batch.robot == robot => self.descriptors.push(batch.clone()),
                 Message::Loops(_) => {
                     if let skid_core::slots::Destination::Robot(peer) =
-                        crate::peers::destination(robot, message)
+                        crate::messages::destination(robot, message)
                     {
                         self.loops.push((peer, message.clone()));
                     }

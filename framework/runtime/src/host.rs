@@ -15,11 +15,13 @@ use skid_core::{Cloud, Keyframe, KeyframeId, LoopId, PluginError, Pose, RobotId,
 use skid_geometry::OdometryChains;
 use skid_protocol::ProtocolEndpoint;
 
-use crate::RuntimeError;
+use crate::clock::HostClock;
+use crate::error::RuntimeError;
 use crate::frontend::{
     DetachedSource, FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome,
 };
 use crate::settings::{information_from_covariance, odometry_step_covariance};
+use crate::warn_limit::WarnLimiter;
 
 /// The plugin instances of one robot; every slot but the source may be empty.
 pub struct Plugins {
@@ -124,6 +126,8 @@ pub struct RobotHost {
     pub pending: Vec<PendingCandidate>,
     /// Peer keyframes whose cloud was requested and has not arrived.
     pub requested: BTreeMap<KeyframeId, CloudRequestState>,
+    /// The time cloud requests are kept in, chosen by the executor.
+    pub clock: HostClock,
     pub loops: BTreeMap<LoopId, LoopClosure>,
     /// Loops identified across robots by their keyframe pair.
     pub loop_by_pair: BTreeMap<(KeyframeId, KeyframeId), LoopId>,
@@ -151,7 +155,7 @@ pub struct RobotHost {
     pub scans_read: usize,
     /// Scans the odometry refused (too few points, a stamp going backwards, …), counted and warned about
     /// at a limited rate.
-    pub skipped_scans: crate::WarnLimiter,
+    pub skipped_scans: WarnLimiter,
     pub finished: bool,
     /// Set when the front-end runs on a thread or in another process.
     pub feed: Option<Box<dyn FrontEndFeed>>,
@@ -160,8 +164,7 @@ pub struct RobotHost {
     keyframes_since_optimize: u32,
 }
 
-/// When a cloud request was last sent, in this robot's time (its newest scan stamp, or the link's
-/// simulated clock after the sources end), and how long to wait before asking again (0: the first
+/// When a cloud request was last sent, in this robot's [`HostClock`], and how long to wait before asking again (0: the first
 /// retry period); the wait doubles with each retry so a congested link is not flooded with copies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CloudRequestState {
@@ -170,7 +173,8 @@ pub struct CloudRequestState {
 }
 
 impl RobotHost {
-    pub fn new(robot: RobotId, plugins: Plugins, protocol: ProtocolEndpoint) -> Self {
+    /// A host for `robot` that times its cloud requests by `clock`.
+    pub fn new(robot: RobotId, plugins: Plugins, protocol: ProtocolEndpoint, clock: HostClock) -> Self {
         let index = plugins
             .descriptor
             .as_ref()
@@ -186,6 +190,7 @@ impl RobotHost {
             index,
             pending: Vec::new(),
             requested: BTreeMap::new(),
+            clock,
             loops: BTreeMap::new(),
             loop_by_pair: BTreeMap::new(),
             next_loop_id: 0,
@@ -201,12 +206,18 @@ impl RobotHost {
             stage_ms: BTreeMap::new(),
             points_read: 0,
             scans_read: 0,
-            skipped_scans: crate::WarnLimiter::default(),
+            skipped_scans: WarnLimiter::default(),
             finished: false,
             feed: None,
             optimizations: 0,
             keyframes_since_optimize: 0,
         }
+    }
+
+    /// The time now by this host's clock.
+    pub fn now_nanos(&self) -> u64 {
+        self.clock
+            .now_nanos(self.scans.last().map_or(0, |scan| scan.stamp_nanos))
     }
 
     /// The loop counters with the accepted, rejected, undecided and awaiting counts as they stand now.
@@ -350,7 +361,7 @@ impl RobotHost {
             .insert(id, keyframe.world_from_sensor, step_covariance);
         let keyframe = Arc::new(keyframe);
         self.keyframes.insert(id.index, Arc::clone(&keyframe));
-        outbox.push(crate::peers::chain_message(
+        outbox.push(crate::messages::chain_message(
             self.robot,
             id.index,
             &keyframe.world_from_sensor,
@@ -432,7 +443,7 @@ impl RobotHost {
         outbox: &mut Vec<skid_protocol::Message>,
     ) -> Result<(), RuntimeError> {
         let id = keyframe.id;
-        outbox.push(crate::peers::descriptor_message(
+        outbox.push(crate::messages::descriptor_message(
             self.robot,
             keyframe,
             &descriptor,
@@ -482,7 +493,7 @@ impl RobotHost {
                     self.process_candidate(config, pending, outbox)?;
                 } else {
                     if !self.requested.contains_key(&candidate.id) {
-                        let sent_nanos = self.scans.last().map_or(0, |s| s.stamp_nanos);
+                        let sent_nanos = self.now_nanos();
                         self.requested.insert(
                             candidate.id,
                             CloudRequestState {
@@ -490,7 +501,7 @@ impl RobotHost {
                                 wait_nanos: 0,
                             },
                         );
-                        outbox.push(crate::peers::cloud_request(self.robot, candidate.id));
+                        outbox.push(crate::messages::cloud_request(self.robot, candidate.id));
                     }
                     self.pending.push(pending);
                 }

@@ -11,12 +11,17 @@
 
 mod artifacts;
 mod catchup;
+mod clock;
+mod delivery;
+mod error;
 mod fleet;
 mod frontend;
 mod graph;
 mod host;
+mod lockstep;
 mod loop_lines;
 mod loops;
+mod messages;
 mod metrics;
 mod observer;
 mod outputs;
@@ -31,6 +36,8 @@ mod summary;
 mod warn_limit;
 
 pub use artifacts::{MAP_VOXEL_M, frames_in_alpha, g2o_vertex_id, merged_map, pose_graph};
+pub use clock::{CLOUD_RETRY_PERIOD, HostClock};
+pub use error::RuntimeError;
 pub use fleet::Fleet;
 pub use frontend::{FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome, ThreadFeed};
 pub use graph::HostGraph;
@@ -45,27 +52,3 @@ pub use single::{SingleRobot, SingleRobotError};
 pub use stop::{request_stop, stop_requested};
 pub use summary::{RobotSummary, RunSummary};
 pub use warn_limit::WarnLimiter;
-
-/// What can stop a run.
-#[derive(Debug, thiserror::Error)]
-pub enum RuntimeError {
-    /// A plugin could not be built or failed while running.
-    #[error("{robot}: {slot} plugin `{plugin}`: {source}")]
-    Plugin {
-        robot: skid_core::RobotId,
-        slot: skid_core::Slot,
-        plugin: String,
-        #[source]
-        source: skid_core::PluginError,
-    },
-    /// A stop was requested (by `signal`, as the binary reported it) before the run ended; the run's
-    /// folder stays `<name>.incomplete/`.
-    #[error("stopped by signal {signal} before the end")]
-    Interrupted { signal: i32 },
-    /// An output could not be written.
-    #[error("writing {}: {message}", path.display())]
-    Output {
-        path: std::path::PathBuf,
-        message: String,
-    },
-}

@@ -7,7 +7,7 @@ use skid_config::ResolvedConfig;
 use skid_core::slots::{LoopCandidate, LoopClosure, Verdict};
 use skid_core::{KeyframeId, LoopId, PluginError, Pose, Slot};
 
-use crate::RuntimeError;
+use crate::error::RuntimeError;
 use crate::graph::HostGraph;
 use crate::host::{LoopStanding, PendingCandidate, RobotHost};
 use crate::settings::loop_information;
@@ -190,14 +190,14 @@ impl RobotHost {
         }
         // One message per loop, so each goes to the one peer it concerns.
         for closure in &accepted_messages {
-            outbox.push(crate::peers::loops_message(
+            outbox.push(crate::messages::loops_message(
                 self.robot,
                 std::slice::from_ref(closure),
                 &[],
             ));
         }
         for closure in &retracted_messages {
-            outbox.push(crate::peers::loops_message(
+            outbox.push(crate::messages::loops_message(
                 self.robot,
                 &[],
                 &[(closure.target, closure.source)],

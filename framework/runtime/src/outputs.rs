@@ -1,4 +1,4 @@
-//! Writes a run's outputs under `<output_dir>/<name>/` (staged by [`crate::run_folder`]): the effective configuration (`config.toml`),
+//! Writes a run's outputs under `<output_dir>/<name>/` (staged by the `run_folder` module): the effective configuration (`config.toml`),
 //! per-robot trajectories (TUM and KITTI; the optimised estimate and the ground truth) and pose graphs
 //! (g2o), the merged map (`map.ply`), the run record (`run.mcap`), `metrics.json`, `summary.json` and the
 //! PNG plots.
@@ -9,11 +9,12 @@ use skid_core::Pose;
 use skid_io::ply::{PlyFormat, write_ply};
 use skid_io::trajectory::{StampedPose, write_kitti_poses, write_tum};
 
-use crate::artifacts::{map_frames, merged_map, output_error, write_plots, write_pose_graphs};
+use crate::artifacts::{map_frames, merged_map, write_plots, write_pose_graphs};
+use crate::error::{RuntimeError, output_error};
+use crate::fleet::Fleet;
 use crate::host::RobotHost;
 use crate::metrics::{RunMetrics, alpha_frames};
 use crate::summary::RunSummary;
-use crate::{Fleet, RuntimeError};
 
 fn stamped(poses: &[(u64, Pose)]) -> Vec<StampedPose> {
     poses

@@ -1,126 +1,24 @@
-//! Messages to and from peers: building the protocol messages a robot sends (descriptors, odometry
-//! chain steps, cloud requests and replies, loops) and acting on the ones it receives.
+//! Acting on the messages a robot receives from its peers (odometry chains, descriptors, cloud requests
+//! and replies, loops), and asking again for clouds that did not come.
 
 use std::sync::Arc;
 
 use skid_config::ResolvedConfig;
-use skid_core::slots::{DescriptorBuf, Destination, LoopClosure};
-use skid_core::{Cloud, Information, Keyframe, KeyframeId, LoopId, Pose, RobotId};
-use skid_protocol::{
-    ChainEdge, CloudMsg, CloudRequest, CompressedPoints, DescriptorBatch, DescriptorEncoding,
-    DescriptorEntry, DescriptorValues, InformationMsg, LoopMsg, Loops, Message, OdomChain, PoseMsg,
-};
+use skid_core::slots::{DescriptorBuf, LoopClosure};
+use skid_core::{Cloud, Information, KeyframeId, LoopId, RobotId};
+use skid_protocol::{CloudMsg, CompressedPoints, Loops, Message, OdomChain, PoseMsg};
 
-use crate::RuntimeError;
+use crate::error::RuntimeError;
 use crate::host::{PendingCandidate, RobotHost};
-use crate::settings::information_from_covariance;
-
-/// Resolution of clouds sent to peers, in metres.
-pub const CLOUD_RESOLUTION_M: f32 = 0.01;
-
-/// A keyframe's descriptor, for every peer.
-pub fn descriptor_message(robot: RobotId, keyframe: &Keyframe, descriptor: &DescriptorBuf) -> Message {
-    let values = DescriptorValues::encode(&descriptor.values, DescriptorEncoding::F32)
-        .unwrap_or(DescriptorValues::F32(descriptor.values.clone()));
-    Message::Descriptors(DescriptorBatch {
-        robot,
-        kind: descriptor.kind.clone(),
-        entries: vec![DescriptorEntry {
-            keyframe_index: keyframe.id.index,
-            stamp_nanos: keyframe.stamp_nanos,
-            values,
-        }],
-    })
-}
-
-/// The odometry step into keyframe `index` (from `index - 1`; none for the first keyframe), with the
-/// pose of the chain's first keyframe so a peer can place the chain before any loop.
-pub fn chain_message(
-    robot: RobotId,
-    index: u32,
-    world_from_keyframe: &Pose,
-    step: Pose,
-    covariance: Information,
-) -> Message {
-    let (from_index, edges) = match index {
-        0 => (0, Vec::new()),
-        _ => (
-            index - 1,
-            vec![ChainEdge {
-                target_from_source: PoseMsg::from_pose(&step),
-                information: InformationMsg::from_information(&information_from_covariance(&covariance)),
-            }],
-        ),
-    };
-    Message::OdomChain(OdomChain {
-        robot,
-        from_index,
-        to_index: index,
-        edges,
-        world_from_first: PoseMsg::from_pose(&(world_from_keyframe * step.inverse())),
-    })
-}
-
-/// Where a message goes: broadcasts to every peer, requests and loops to the robot concerned.
-pub fn destination(robot: RobotId, message: &Message) -> Destination {
-    match message {
-        Message::CloudRequest(request) => request
-            .keyframes
-            .first()
-            .map_or(Destination::AllPeers, |id| Destination::Robot(id.robot)),
-        Message::Loops(loops) => loops
-            .accepted
-            .first()
-            .map(|l| (l.target, l.source))
-            .or_else(|| loops.retracted.first().copied())
-            .map_or(Destination::AllPeers, |(target, source)| {
-                Destination::Robot(if target.robot == robot {
-                    source.robot
-                } else {
-                    target.robot
-                })
-            }),
-        _ => Destination::AllPeers,
-    }
-}
-
-/// A request for one peer keyframe's cloud.
-pub fn cloud_request(requester: RobotId, keyframe: KeyframeId) -> Message {
-    Message::CloudRequest(CloudRequest {
-        requester,
-        keyframes: vec![keyframe],
-    })
-}
-
-/// Accepted and retracted loops for the peer involved.
-pub fn loops_message(
-    robot: RobotId,
-    accepted: &[LoopClosure],
-    retracted: &[(KeyframeId, KeyframeId)],
-) -> Message {
-    Message::Loops(Loops {
-        robot,
-        accepted: accepted
-            .iter()
-            .map(|closure| LoopMsg {
-                target: closure.target,
-                source: closure.source,
-                target_from_source: PoseMsg::from_pose(&closure.target_from_source),
-                information: InformationMsg::from_information(&closure.information),
-                // The verifier keeps the fitness to itself; 0 marks it as not reported.
-                fitness_m2: 0.0,
-            })
-            .collect(),
-        retracted: retracted.to_vec(),
-    })
-}
+use crate::messages::{CLOUD_RESOLUTION_M, cloud_request};
 
 impl RobotHost {
-    /// Cloud requests unanswered for `period_nanos` of this robot's time (`now_nanos`, its newest scan
-    /// stamp or the link's simulated clock), sent again: the request or the reply was lost, or the peer was
-    /// away. Each retry doubles the wait (up to 16 periods), so replies queued on a slow link are not
-    /// answered by ever more copies. Deterministic, so the executors still agree.
-    pub fn due_cloud_requests(&mut self, now_nanos: u64, period_nanos: u64) -> Vec<Message> {
+    /// Cloud requests unanswered for `period_nanos` by this robot's clock, sent again: the request or the
+    /// reply was lost, or the peer was away. Each retry doubles the wait (up to 16 periods), so replies
+    /// queued on a slow link are not answered by ever more copies. Deterministic in scan time, so the
+    /// executors still agree.
+    pub fn due_cloud_requests(&mut self, period_nanos: u64) -> Vec<Message> {
+        let now_nanos = self.now_nanos();
         let mut again = Vec::new();
         for (&id, state) in &mut self.requested {
             let wait_nanos = state.wait_nanos.max(period_nanos);

@@ -23,17 +23,16 @@ use skid_ipc::{
     FrontEndHeader, FrontEndScans, FrontEndStatus, ProcessNode, TopicPublisher, TopicSubscriber, ipc,
 };
 
+use crate::error::{RuntimeError, output_error};
 use crate::fleet::{Fleet, build, plugin_context};
 use crate::frontend::{FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome};
-use crate::{RuntimeError, artifacts::output_error};
+use crate::run_folder::STAGES_FOLDER;
 
 /// Environment variable naming the executable that runs stages (default: this executable).
 pub const STAGE_EXE_VAR: &str = "SKID_STAGE_EXE";
 /// Environment variable for fault-injection tests: the front-end process of the robot given as
 /// `ROBOT:N` aborts right after publishing its `N`-th output, once (not after a restart).
 pub const CRASH_AFTER_VAR: &str = "SKID_FRONT_END_CRASH_AFTER";
-/// The folder inside the run's staging folder holding the configuration the front-end processes read.
-pub(crate) const STAGES_FOLDER: &str = "stages";
 /// Restarts of one front-end allowed before the run fails.
 const MAX_RESTARTS: u32 = 5;
 /// How long a front-end process may take to connect before it is declared dead.

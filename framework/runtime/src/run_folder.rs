@@ -12,7 +12,10 @@ use std::sync::Mutex;
 use skid_config::ResolvedConfig;
 use skid_io::staged::{Existing, StagedError, StagedFolder};
 
-use crate::RuntimeError;
+use crate::error::RuntimeError;
+
+/// The folder inside the run's staging folder holding the configuration the front-end processes read.
+pub(crate) const STAGES_FOLDER: &str = "stages";
 
 /// The run folders this process has started and not yet committed or abandoned (a folder left by an
 /// interrupted earlier run is started afresh).
@@ -76,9 +79,9 @@ fn is_empty(folder: &Path) -> bool {
 
 /// Moves the finished run into place (after dropping the front-end processes' stage files).
 pub(crate) fn commit(folder: &StagedFolder) -> Result<PathBuf, RuntimeError> {
-    let stages = folder.path().join(crate::process::STAGES_FOLDER);
+    let stages = folder.path().join(STAGES_FOLDER);
     if stages.exists() {
-        std::fs::remove_dir_all(&stages).map_err(|e| crate::artifacts::output_error(&stages, e))?;
+        std::fs::remove_dir_all(&stages).map_err(|e| crate::error::output_error(&stages, e))?;
     }
     set_started(folder, false);
     folder.commit().map_err(|e| staged_error(folder, e))
@@ -93,7 +96,7 @@ pub fn abandon_run(config: &ResolvedConfig, reason: &str) -> Option<PathBuf> {
         return None;
     }
     set_started(&folder, false);
-    let _ = std::fs::remove_dir_all(folder.path().join(crate::process::STAGES_FOLDER));
+    let _ = std::fs::remove_dir_all(folder.path().join(STAGES_FOLDER));
     let marker = folder.path().join(skid_io::staged::INCOMPLETE_MARKER);
     let note = std::fs::read_to_string(&marker).unwrap_or_default();
     if let Err(error) = std::fs::write(&marker, format!("{note}Reason: {reason}\n")) {

@@ -24,8 +24,8 @@ use skid_core::msgs::PoseWire;
 use skid_core::pose::pose_to_wire;
 use skid_core::{Point, Pose, RawPoint};
 
-use crate::RuntimeError;
-use crate::artifacts::output_error;
+use crate::error::RuntimeError;
+use crate::error::output_error;
 use crate::host::RobotHost;
 use crate::loop_lines::{LOOP_CLASSES, placed_loops};
 

@@ -8,7 +8,7 @@
 //! peers start, stop and restart on their own, the runner also:
 //! - sends a heartbeat every [`HEARTBEAT_PERIOD`], so idle robots are still noticed;
 //! - replays its chain, descriptors and loops to a peer whose new protocol session it sees (a late
-//!   joiner or a restarted process; see [`crate::catchup`]), and drops the repeats it receives itself;
+//!   joiner or a restarted process; see the `catchup` module), and drops the repeats it receives itself;
 //! - re-sends cloud requests that stay unanswered for [`CLOUD_RETRY_PERIOD`] (lost, or the peer was
 //!   down), doubling the wait with each retry;
 //! - keeps answering for `deploy.linger_s` after its source ends, so its peers' late requests succeed.
@@ -20,15 +20,17 @@ use skid_core::slots::Destination;
 use skid_core::{Registry, RobotId};
 use skid_protocol::{Arrival, Capabilities, Message, PeerStatus};
 
-use crate::RuntimeError;
 use crate::catchup::CatchUp;
-use crate::fleet::{Fleet, build_host, deliver_filtered, send_all};
+use crate::clock::{CLOUD_RETRY_NANOS, HostClock};
+use crate::delivery::{deliver_filtered, send_all};
+use crate::error::RuntimeError;
+use crate::fleet::{Fleet, build_host};
+use crate::host::RobotHost;
+use crate::observer::Observers;
 use crate::summary::RunSummary;
 
 /// How often an idle robot says it is alive.
 pub const HEARTBEAT_PERIOD: Duration = Duration::from_secs(1);
-/// How long a cloud request may stay unanswered before it is sent again.
-pub const CLOUD_RETRY_PERIOD: Duration = Duration::from_secs(2);
 /// Longest sleep between transport polls while waiting for the next scan.
 const POLL_SLEEP: Duration = Duration::from_millis(5);
 
@@ -47,8 +49,6 @@ pub struct SingleRobot {
     /// A fleet holding only this robot, so the run's outputs are written as for any fleet.
     fleet: Fleet,
     catch_up: CatchUp,
-    /// The origin of this robot's wall clock, in which its cloud requests are timed.
-    started: Instant,
 }
 
 impl SingleRobot {
@@ -65,20 +65,27 @@ impl SingleRobot {
             ));
         };
         config.run.name = format!("{}-robot{index}", config.run.name);
-        let host = build_host(&config, registry, RobotId(index), fresh_session(index))?;
+        // Peers start, stop and restart on their own and this robot lingers after its scans end, so
+        // its cloud requests are timed by the wall clock.
+        let host = build_host(
+            &config,
+            registry,
+            RobotId(index),
+            fresh_session(index),
+            HostClock::wall(),
+        )?;
         Ok(Self {
             fleet: Fleet {
                 config,
                 robots: vec![host],
                 hub: None,
-                observers: crate::observer::Observers::default(),
+                observers: Observers::default(),
             },
             catch_up: CatchUp::default(),
-            started: Instant::now(),
         })
     }
 
-    /// The one-robot fleet (for [`crate::write_outputs`]).
+    /// The one-robot fleet (for writing the run's outputs).
     pub fn fleet(&self) -> &Fleet {
         &self.fleet
     }
@@ -145,14 +152,12 @@ impl SingleRobot {
         Ok(RunSummary::of(&self.fleet, started.elapsed().as_secs_f64()))
     }
 
-    fn robot(&self) -> &crate::RobotHost {
+    fn robot(&self) -> &RobotHost {
         &self.fleet.robots[0]
     }
 
     /// Processes one scan; returns whether the source has ended and the newest scan's stamp.
     fn step(&mut self) -> Result<(bool, u64), RuntimeError> {
-        // Cloud requests are timed by the wall clock: this robot may linger after its scans end.
-        let now_nanos = self.wall_nanos();
         let config = &self.fleet.config;
         let max_scans = config.run.max_scans as usize;
         let robot = &mut self.fleet.robots[0];
@@ -164,15 +169,6 @@ impl SingleRobot {
             robot.finished = !robot.step(config, &mut outbox)?;
             self.fleet.observers.after_step(robot, scans, optimizations);
             self.catch_up.record(robot.robot, &outbox);
-            for message in &outbox {
-                if let Message::CloudRequest(request) = message {
-                    for id in &request.keyframes {
-                        if let Some(state) = robot.requested.get_mut(id) {
-                            state.sent_nanos = now_nanos;
-                        }
-                    }
-                }
-            }
             send_all(robot, outbox);
         }
         let stamp = robot.scans.last().map_or(0, |scan| scan.stamp_nanos);
@@ -204,18 +200,11 @@ impl SingleRobot {
         Ok(())
     }
 
-    /// Nanoseconds since this robot was built.
-    fn wall_nanos(&self) -> u64 {
-        u64::try_from(self.started.elapsed().as_nanos()).unwrap_or(u64::MAX)
-    }
-
     /// Sends again the cloud requests that stayed unanswered too long (with the back-off of
-    /// [`crate::RobotHost::due_cloud_requests`]).
+    /// [`RobotHost::due_cloud_requests`]).
     fn retry_cloud_requests(&mut self) {
-        let now_nanos = self.wall_nanos();
-        let period_nanos = u64::try_from(CLOUD_RETRY_PERIOD.as_nanos()).unwrap_or(u64::MAX);
         let robot = &mut self.fleet.robots[0];
-        let again = robot.due_cloud_requests(now_nanos, period_nanos);
+        let again = robot.due_cloud_requests(CLOUD_RETRY_NANOS);
         send_all(robot, again);
     }
 
@@ -245,7 +234,7 @@ impl SingleRobot {
 }
 
 /// Encodes and sends `messages` to one destination; failures are logged, never fatal.
-fn send_to(robot: &mut crate::RobotHost, destination: Destination, messages: Vec<Message>) {
+fn send_to(robot: &mut RobotHost, destination: Destination, messages: Vec<Message>) {
     let Some(transport) = robot.plugins.transport.as_mut() else {
         return;
     };

@@ -1,6 +1,6 @@
 //! A process-wide request to stop a run early. The binary turns SIGINT/SIGTERM into
 //! [`request_stop`]; the executors check [`stop_requested`] between scans (and the process feeds while
-//! they wait for a front-end), return [`crate::RuntimeError::Interrupted`], and their drops stop the
+//! they wait for a front-end), return [`crate::error::RuntimeError::Interrupted`], and their drops stop the
 //! front-end processes. The runtime itself installs no signal handler.
 
 use std::sync::atomic::{AtomicI32, Ordering};
@@ -23,18 +23,18 @@ pub fn stop_requested() -> Option<i32> {
 }
 
 /// `Err(Interrupted)` once a stop was requested.
-pub(crate) fn check() -> Result<(), crate::RuntimeError> {
+pub(crate) fn check() -> Result<(), crate::error::RuntimeError> {
     match stop_requested() {
-        Some(signal) => Err(crate::RuntimeError::Interrupted { signal }),
+        Some(signal) => Err(crate::error::RuntimeError::Interrupted { signal }),
         None => Ok(()),
     }
 }
 
 /// `error`, or `Interrupted` when a stop was requested (a stop makes waiting stages fail; the stop is
 /// the reason to report).
-pub(crate) fn or_interrupted(error: crate::RuntimeError) -> crate::RuntimeError {
+pub(crate) fn or_interrupted(error: crate::error::RuntimeError) -> crate::error::RuntimeError {
     match stop_requested() {
-        Some(signal) => crate::RuntimeError::Interrupted { signal },
+        Some(signal) => crate::error::RuntimeError::Interrupted { signal },
         None => error,
     }
 }
