@@ -18,8 +18,9 @@ use skid_core::{KeyframeId, LoopId, PluginContext, PluginError, PluginResult, Po
 use crate::chain::{Chains, Step};
 use crate::distributed::{Scope, active_loops, align_peers, build, write_back};
 use crate::g2o_file::{Initialization, RobustMode};
-use crate::gnc::{GncSettings, gnc_tls};
+use crate::gnc::{GncSettings, gnc_tls, gnc_tls_warm, strict_threshold};
 use crate::group::PoseGroup;
+use crate::incremental::Memory;
 use crate::lm::{LmSettings, SystemCache, optimize};
 use crate::problem::check_information;
 use crate::robust::{Kernel, RobustLoss, chi2_quantile};
@@ -65,6 +66,7 @@ pub struct PgoBackend {
     aligned: BTreeSet<RobotId>,
     cache: SystemCache<6>,
     kernel: Kernel,
+    memory: Memory,
 }
 
 fn invalid(message: impl Into<String>) -> PluginError {
@@ -110,6 +112,7 @@ impl PgoBackend {
             aligned: BTreeSet::from([context.robot]),
             cache: SystemCache::default(),
             kernel,
+            memory: Memory::default(),
         })
     }
 
@@ -183,6 +186,9 @@ impl Backend for PgoBackend {
                 "odometry {target} -> {source} must go forwards within one robot"
             )));
         }
+        if source.robot != self.own && self.memory.inside_composed_stretch(source.robot, source.index) {
+            self.memory.changed = true;
+        }
         let chain = self.chains.robots.entry(source.robot).or_default();
         if chain.step(source.index).is_some() {
             return Err(invalid(format!("odometry into {source} was added before")));
@@ -217,6 +223,12 @@ impl Backend for PgoBackend {
             &closure.target_from_source,
             &closure.information,
         )?;
+        for end in [closure.target, closure.source] {
+            if end.robot != self.own {
+                self.memory.loop_touches_peer(end.robot, end.index);
+            }
+        }
+        self.memory.changed = true;
         self.loops.insert(
             closure.id,
             LoopClosure {
@@ -230,8 +242,10 @@ impl Backend for PgoBackend {
     fn remove_loop(&mut self, id: LoopId) -> PluginResult<()> {
         self.loops
             .remove(&id)
-            .map(drop)
-            .ok_or_else(|| invalid(format!("{id} is not in the graph")))
+            .ok_or_else(|| invalid(format!("{id} is not in the graph")))?;
+        self.memory.changed = true;
+        self.memory.removed_since_full_run = true;
+        Ok(())
     }
 
     fn optimize(&mut self, budget: OptimizeBudget) -> PluginResult<OptimizeReport> {
@@ -252,6 +266,34 @@ impl Backend for PgoBackend {
         align_peers(&mut self.poses, &mut self.aligned, &loops);
         let robust = self.config.robust != RobustMode::None;
         let mut subgraph = build(&self.poses, &self.chains, &loops, scope, robust)?;
+        // Nothing the last converged solution does not account for: it is still the optimum (see
+        // `crate::incremental`); only the peers' keyframes are placed again below.
+        let report = if self.memory.changed {
+            self.solve(&mut subgraph, budget, loops.len())?
+        } else {
+            OptimizeReport {
+                iterations: 0,
+                ..self.memory.last_report
+            }
+        };
+        write_back(&mut self.poses, &self.chains, &subgraph, scope);
+        Ok(report)
+    }
+
+    fn graph(&self) -> &dyn GraphView {
+        self
+    }
+}
+
+impl PgoBackend {
+    /// Solves `subgraph` (holding `loop_count` loops) from the current estimate, by GNC (warm when the
+    /// memory allows) or by Levenberg-Marquardt with the configured kernel, and remembers the outcome.
+    fn solve(
+        &mut self,
+        subgraph: &mut crate::distributed::Subgraph,
+        budget: OptimizeBudget,
+        loop_count: usize,
+    ) -> PluginResult<OptimizeReport> {
         if self.config.init == Initialization::Chordal {
             crate::chordal::chordal_3d(&mut subgraph.problem)?;
         }
@@ -262,12 +304,26 @@ impl Backend for PgoBackend {
             ..LmSettings::default()
         };
         let report = if self.config.robust == RobustMode::Gnc {
+            let nominal = self.kernel.width * self.kernel.width;
             let gnc = GncSettings {
-                threshold_squared: self.kernel.width * self.kernel.width,
+                threshold_squared: nominal,
                 inner: settings,
                 ..GncSettings::default()
             };
-            let outcome = gnc_tls(&mut subgraph.problem, &gnc, &mut self.cache)?;
+            let outcome = match self.memory.threshold_squared {
+                Some(threshold) if self.memory.warm_start_allowed(loop_count) => {
+                    let earlier = self.memory.earlier_labels(&subgraph.factor_loops);
+                    gnc_tls_warm(&mut subgraph.problem, &gnc, threshold, &earlier, &mut self.cache)?
+                }
+                _ => {
+                    let outcome = gnc_tls(&mut subgraph.problem, &gnc, &mut self.cache)?;
+                    self.memory.threshold_squared = Some(strict_threshold(&outcome, nominal));
+                    self.memory.loops_at_full_run = loop_count;
+                    self.memory.removed_since_full_run = false;
+                    outcome
+                }
+            };
+            self.memory.keep_labels(&subgraph.factor_loops, &outcome.weights);
             OptimizeReport {
                 iterations: outcome.total_iterations,
                 initial_cost: outcome.initial_cost,
@@ -283,12 +339,9 @@ impl Backend for PgoBackend {
                 converged: outcome.converged(),
             }
         };
-        write_back(&mut self.poses, &self.chains, &subgraph, scope);
+        self.memory.changed = !report.converged;
+        self.memory.last_report = report.clone();
         Ok(report)
-    }
-
-    fn graph(&self) -> &dyn GraphView {
-        self
     }
 }
 

@@ -31,6 +31,8 @@ pub enum Scope {
 pub struct Subgraph {
     pub problem: Problem<Isometry3<f64>, 6>,
     pub keyframes: Vec<KeyframeId>,
+    /// The loop each factor of `problem` measures (`None` for odometry), in factor order.
+    pub factor_loops: Vec<Option<skid_core::LoopId>>,
 }
 
 /// The loops an optimisation uses: all of them, or those with an endpoint on `own`.
@@ -192,8 +194,10 @@ pub fn build(
             });
         }
     }
+    let mut factor_loops = vec![None; edges.len()];
     for l in loops {
         if let (Some(&i), Some(&j)) = (position.get(&l.target), position.get(&l.source)) {
+            factor_loops.push(Some(l.id));
             edges.push(RawEdge {
                 i,
                 j,
@@ -217,7 +221,11 @@ pub fn build(
     let problem = Problem::new(initial, fixed, &edges, Unanchored::AnchorFirst, &|k| {
         names[k].to_string()
     })?;
-    Ok(Subgraph { problem, keyframes })
+    Ok(Subgraph {
+        problem,
+        keyframes,
+        factor_loops,
+    })
 }
 
 /// Writes an optimised subgraph back, and moves the peer keyframes between touched ones rigidly with the

@@ -142,6 +142,47 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
     Ok(outcome)
 }
 
+/// GNC-TLS warm-started from an earlier solution (issue #18: cost that stays flat as the graph grows).
+/// Loops that carry an earlier label in `earlier` (by factor) keep it while the loops new since then
+/// graduate at `threshold_squared` (the earlier run's, variance factor included) from the current
+/// poses; then every loop is re-labelled against the nominal threshold until no label changes, as after
+/// a full run, so new evidence can still overturn an earlier label.
+pub fn gnc_tls_warm<G: PoseGroup<D>, const D: usize>(
+    problem: &mut Problem<G, D>,
+    settings: &GncSettings,
+    threshold_squared: f64,
+    earlier: &[Option<f64>],
+    cache: &mut SystemCache<D>,
+) -> Result<GncOutcome, PgoError> {
+    if earlier.len() != problem.factors.len() || !(threshold_squared.is_finite() && threshold_squared > 0.0) {
+        return Err(PgoError::Option(
+            "a warm GNC start needs one earlier label per factor and a positive threshold".into(),
+        ));
+    }
+    let mut weights = vec![1.0; problem.factors.len()];
+    let mut free = vec![false; problem.factors.len()];
+    for (k, factor) in problem.factors.iter().enumerate() {
+        if factor.robust {
+            match earlier[k] {
+                Some(label) => weights[k] = label,
+                None => free[k] = true,
+            }
+        }
+    }
+    let mut outcome = graduate_free(problem, settings, threshold_squared, cache, weights, &free)?;
+    readmit(problem, settings, &mut outcome, cache)?;
+    Ok(outcome)
+}
+
+/// The threshold a full [`gnc_tls`] run graduated at last: the nominal `threshold_squared` scaled by
+/// the run's variance factor when that was below 1 (what a warm start should graduate new loops at).
+pub fn strict_threshold(outcome: &GncOutcome, threshold_squared: f64) -> f64 {
+    match outcome.variance_factor {
+        Some(variance) if variance < 1.0 => variance.max(MIN_VARIANCE_FACTOR) * threshold_squared,
+        _ => threshold_squared,
+    }
+}
+
 /// The a-posteriori variance factor `Σ s / (D (m − n_free))` over the factors of weight 1, or `None`
 /// when the inliers leave no redundancy.
 fn variance_factor<G: PoseGroup<D>, const D: usize>(problem: &Problem<G, D>, weights: &[f64]) -> Option<f64> {
@@ -198,26 +239,43 @@ fn polish_settings(inner: &LmSettings) -> LmSettings {
     }
 }
 
-/// One graduated run at threshold `c2`.
+/// One graduated run at threshold `c2` over every loop closure.
 fn graduate<G: PoseGroup<D>, const D: usize>(
     problem: &mut Problem<G, D>,
     settings: &GncSettings,
     c2: f64,
     cache: &mut SystemCache<D>,
 ) -> Result<GncOutcome, PgoError> {
-    let mut weights = vec![1.0; problem.factors.len()];
+    let free: Vec<bool> = problem.factors.iter().map(|f| f.robust).collect();
+    let weights = vec![1.0; problem.factors.len()];
+    graduate_free(problem, settings, c2, cache, weights, &free)
+}
+
+/// One graduated run at threshold `c2` in which only the factors marked `free` change weight; the others
+/// keep the weight `weights` gives them (1 for odometry, a loop's earlier label in a warm start).
+fn graduate_free<G: PoseGroup<D>, const D: usize>(
+    problem: &mut Problem<G, D>,
+    settings: &GncSettings,
+    c2: f64,
+    cache: &mut SystemCache<D>,
+    mut weights: Vec<f64>,
+    free: &[bool],
+) -> Result<GncOutcome, PgoError> {
+    let kept = weights.clone();
     if settings.start_from_odometry {
-        for (w, factor) in weights.iter_mut().zip(&problem.factors) {
-            if factor.robust {
+        for (w, is_free) in weights.iter_mut().zip(free) {
+            if *is_free {
                 *w = ODOMETRY_START_LOOP_WEIGHT;
             }
         }
     }
     let initial_cost = problem.cost(&|_: usize, s: f64| s);
     let mut last = optimize(problem, &FixedWeights(&weights), &settings.inner, cache)?;
-    weights.fill(1.0);
+    for ((w, is_free), kept) in weights.iter_mut().zip(free).zip(&kept) {
+        *w = if *is_free { 1.0 } else { *kept };
+    }
     let (mut total_iterations, mut factorizations) = (last.iterations, last.factorizations);
-    let robust: Vec<bool> = problem.factors.iter().map(|f| f.robust).collect();
+    let robust: Vec<bool> = free.to_vec();
     let norms = problem.squared_norms();
     let s_max = norms
         .iter()

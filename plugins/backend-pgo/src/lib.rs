@@ -21,6 +21,7 @@ pub mod error;
 pub mod g2o_file;
 pub mod gnc;
 pub mod group;
+pub mod incremental;
 pub mod linear;
 pub mod lm;
 pub mod problem;

@@ -182,3 +182,73 @@ fn bad_input_is_refused() {
     );
     assert!(backend.optimize(OptimizeBudget::default()).unwrap().converged);
 }
+
+/// Robot 0's and robot 1's poses of `backend`, in keyframe order.
+fn all_poses(backend: &PgoBackend) -> Vec<Pose> {
+    (0..2)
+        .flat_map(|robot| (0..20).map(move |k| KeyframeId::new(robot, k)))
+        .map(|id| backend.graph().pose(id).unwrap())
+        .collect()
+}
+
+/// A loop between robot 0's keyframe `a` and robot 1's `b` that is `offset_m` off along y.
+fn wrong_loop(id: u64, a: u32, b: u32, offset_m: f64) -> LoopClosure {
+    let mut closure = inter_loop(id, a, b);
+    closure.target_from_source = Pose::translation(0.0, offset_m, 0.0) * closure.target_from_source;
+    closure
+}
+
+#[test]
+fn gnc_warm_started_from_the_last_solution_ends_where_a_full_run_does() {
+    let gnc = || PgoConfig {
+        robust: skid_backend_pgo::g2o_file::RobustMode::Gnc,
+        ..PgoConfig::default()
+    };
+    let first: Vec<LoopClosure> = (0..10)
+        .map(|k| inter_loop(k, 2 * (k as u32 % 9) + 1, 2 * (k as u32 % 9)))
+        .collect();
+    let second: Vec<LoopClosure> = [
+        inter_loop(20, 4, 5),
+        inter_loop(21, 12, 12),
+        inter_loop(22, 18, 17),
+    ]
+    .into_iter()
+    .chain([wrong_loop(23, 10, 10, 3.0), wrong_loop(24, 6, 7, -2.5)])
+    .collect();
+    let mut incremental = two_robot_backend(gnc());
+    for closure in &first {
+        incremental.add_loop(closure.clone()).unwrap();
+    }
+    let first_report = incremental.optimize(OptimizeBudget::default()).unwrap();
+    assert!(first_report.converged, "{first_report:?}");
+
+    // Nothing new: no solve, and nothing moves.
+    let settled = all_poses(&incremental);
+    let idle = incremental.optimize(OptimizeBudget::default()).unwrap();
+    assert_eq!(idle.iterations, 0, "{idle:?}");
+    assert_eq!(all_poses(&incremental), settled);
+
+    // Five new loops, two of them wrong: the warm start rejects those and agrees with a full run from
+    // the odometry on every loop at once.
+    for closure in &second {
+        incremental.add_loop(closure.clone()).unwrap();
+    }
+    let warm = incremental.optimize(OptimizeBudget::default()).unwrap();
+    assert!(warm.converged, "{warm:?}");
+    let mut full = two_robot_backend(gnc());
+    for closure in first.iter().chain(&second) {
+        full.add_loop(closure.clone()).unwrap();
+    }
+    let full_report = full.optimize(OptimizeBudget::default()).unwrap();
+    for (k, (a, b)) in all_poses(&incremental).iter().zip(all_poses(&full)).enumerate() {
+        let difference = (a.inverse() * b).translation.vector.norm();
+        assert!(difference < 1e-3, "pose {k}: {difference} m from the full run");
+    }
+    assert!(pair_error_m(&incremental, &[(10, 10), (6, 7), (12, 12)]) < 0.1);
+    assert!(
+        warm.iterations < full_report.iterations,
+        "the warm start does less work than a full run on the same loops: {} against {}",
+        warm.iterations,
+        full_report.iterations
+    );
+}

@@ -1,0 +1,123 @@
+//! What keeps the `pgo` back-end's cost per keyframe flat as a mission grows (issue #18): what the last
+//! optimisation left behind, so that the next one does only the work that is new.
+//!
+//! - **Nothing new, nothing solved.** A keyframe of the robot's own enters the graph as a leaf, placed by
+//!   its odometry from the optimised pose before it (the host's guess), where its one factor has zero
+//!   residual: the optimum of the grown graph is the old optimum plus the new leaves. Until a loop is
+//!   added or removed, or peer odometry changes inside a stretch the subgraph composes, the next
+//!   optimisation only re-places the peers' keyframes (after a solve that converged).
+//! - **Warm GNC.** New loops graduate from the last solution while the earlier loops keep their labels,
+//!   then every loop is re-labelled at the nominal threshold ([`crate::gnc::gnc_tls_warm`]). A full GNC
+//!   run (from the odometry, with the variance factor re-estimated) happens when a loop was removed,
+//!   and whenever the number of loops has doubled since the last full run, so its cost, which grows
+//!   with the graph, is amortised to a constant per loop.
+
+use std::collections::BTreeMap;
+
+use skid_core::slots::OptimizeReport;
+use skid_core::{LoopId, RobotId};
+
+/// Fewer loops than this always get a full GNC run: a warm start needs an established consensus.
+const MIN_LOOPS_FOR_WARM_START: usize = 8;
+
+/// What the last optimisation left behind.
+#[derive(Debug)]
+pub struct Memory {
+    /// Something the last solution does not account for: a loop added or removed, peer odometry inside
+    /// a composed stretch, or a solve that did not converge.
+    pub changed: bool,
+    /// Each loop's label after the last GNC run (1 inlier, 0 outlier).
+    pub labels: BTreeMap<LoopId, f64>,
+    /// The threshold the last full GNC run graduated at (its variance factor applied).
+    pub threshold_squared: Option<f64>,
+    /// The number of loops at the last full GNC run.
+    pub loops_at_full_run: usize,
+    /// A loop was removed since the last full GNC run.
+    pub removed_since_full_run: bool,
+    /// The highest keyframe index of each peer that a loop touches: peer odometry up to there is
+    /// composed into the subgraph.
+    pub touched_up_to: BTreeMap<RobotId, u32>,
+    /// The report of the last solve, returned again when nothing changed.
+    pub last_report: OptimizeReport,
+}
+
+impl Default for Memory {
+    fn default() -> Self {
+        Self {
+            changed: true,
+            labels: BTreeMap::new(),
+            threshold_squared: None,
+            loops_at_full_run: 0,
+            removed_since_full_run: false,
+            touched_up_to: BTreeMap::new(),
+            last_report: OptimizeReport::default(),
+        }
+    }
+}
+
+impl Memory {
+    /// Whether GNC may start warm with `loops` loops in the graph.
+    pub fn warm_start_allowed(&self, loops: usize) -> bool {
+        self.threshold_squared.is_some()
+            && !self.removed_since_full_run
+            && self.loops_at_full_run >= MIN_LOOPS_FOR_WARM_START
+            && loops < 2 * self.loops_at_full_run
+    }
+
+    /// The earlier label of each factor's loop (`None` for odometry and for loops new since).
+    pub fn earlier_labels(&self, factor_loops: &[Option<LoopId>]) -> Vec<Option<f64>> {
+        factor_loops
+            .iter()
+            .map(|id| id.and_then(|id| self.labels.get(&id).copied()))
+            .collect()
+    }
+
+    /// Keeps the labels GNC gave each factor's loop.
+    pub fn keep_labels(&mut self, factor_loops: &[Option<LoopId>], weights: &[f64]) {
+        self.labels = factor_loops
+            .iter()
+            .zip(weights)
+            .filter_map(|(id, weight)| id.map(|id| (id, *weight)))
+            .collect();
+    }
+
+    /// Records that a loop touching `robot`'s keyframe `index` (a peer's) joined the graph.
+    pub fn loop_touches_peer(&mut self, robot: RobotId, index: u32) {
+        let up_to = self.touched_up_to.entry(robot).or_insert(index);
+        *up_to = (*up_to).max(index);
+    }
+
+    /// Whether peer odometry into `robot`'s keyframe `index` falls inside a stretch the subgraph composes.
+    pub fn inside_composed_stretch(&self, robot: RobotId, index: u32) -> bool {
+        self.touched_up_to
+            .get(&robot)
+            .is_some_and(|up_to| index <= *up_to)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warm_starts_until_the_loops_double_or_one_is_removed() {
+        let mut memory = Memory::default();
+        assert!(!memory.warm_start_allowed(10), "no full run yet");
+        memory.threshold_squared = Some(16.8);
+        memory.loops_at_full_run = 10;
+        assert!(memory.warm_start_allowed(19));
+        assert!(!memory.warm_start_allowed(20));
+        memory.removed_since_full_run = true;
+        assert!(!memory.warm_start_allowed(11));
+    }
+
+    #[test]
+    fn peer_odometry_counts_only_inside_touched_stretches() {
+        let mut memory = Memory::default();
+        memory.loop_touches_peer(RobotId(1), 5);
+        memory.loop_touches_peer(RobotId(1), 3);
+        assert!(memory.inside_composed_stretch(RobotId(1), 5));
+        assert!(!memory.inside_composed_stretch(RobotId(1), 6));
+        assert!(!memory.inside_composed_stretch(RobotId(2), 0));
+    }
+}
