@@ -102,4 +102,10 @@ pub const PROFILES: &[BenchProfile] = &[
         package: "skid-bench",
         binary: "skid-bench-table4-latency",
     },
+    BenchProfile {
+        name: "scale",
+        summary: "N = 2..16 robots of the default pipeline and a 20-minute mission: wall and CPU per stage, memory, bytes, loops, ATE; back-end/verifier cost per keyframe over time",
+        package: "skid-bench",
+        binary: "skid-bench-scale",
+    },
 ];

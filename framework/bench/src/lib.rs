@@ -18,8 +18,11 @@ pub mod place_recognition;
 pub mod profile;
 pub mod registration;
 pub mod report;
+pub mod scale;
+pub mod scale_report;
 pub mod slam;
 pub mod stats;
+pub mod usage;
 
 pub use profile::{load_profile, run_profile};
 pub use report::{BenchArgs, Report, append_markdown, markdown_table};
