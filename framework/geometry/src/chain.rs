@@ -1,6 +1,12 @@
 //! Odometry chains: each robot's keyframe poses in its own odometry frame and the covariance of every
 //! step, with first-order propagation of the covariance along the chain. This is what pairwise
 //! consistency (PCM) needs for the relative odometry between two keyframes of one robot.
+//!
+//! Propagation in O(1): along a gap-free run of keyframes starting at `s`, keyframe `k` keeps the prefix
+//! `P_k = Σ_{m=s+1..k} Ad(T_{m-1}) Σ_m Ad(T_{m-1})ᵀ` (odometry-frame poses `T`, step covariances `Σ`), so
+//! the covariance of `T_l⁻¹ T_h` in keyframe `l`'s frame is `Ad(T_l⁻¹) (P_h − P_l) Ad(T_l⁻¹)ᵀ`. Keyframes
+//! normally arrive in order (O(1) each); one that fills a gap or replaces an earlier one recomputes the
+//! prefixes of the run after it.
 
 use std::collections::BTreeMap;
 
@@ -26,6 +32,10 @@ pub fn adjoint(pose: &Pose) -> Matrix6<f64> {
 struct Link {
     world_from_sensor: Pose,
     step_covariance: Information,
+    /// First keyframe of the gap-free run this keyframe belongs to.
+    run_start: u32,
+    /// `P_k` of the module doc, in the odometry frame.
+    prefix_covariance: Matrix6<f64>,
 }
 
 /// Odometry chains of any number of robots.
@@ -38,13 +48,40 @@ impl OdometryChains {
     /// Records keyframe `id` at `world_from_sensor` (in its robot's odometry frame), with the covariance
     /// of the step from keyframe `id.index - 1` (ignored for the first keyframe).
     pub fn insert(&mut self, id: KeyframeId, world_from_sensor: Pose, step_covariance: Information) {
-        self.chains.entry(id.robot).or_default().insert(
+        let chain = self.chains.entry(id.robot).or_default();
+        let appended = chain.last_key_value().is_none_or(|(&last, _)| id.index > last);
+        chain.insert(
             id.index,
             Link {
                 world_from_sensor,
                 step_covariance,
+                run_start: id.index,
+                prefix_covariance: Matrix6::zeros(),
             },
         );
+        // Recompute the prefixes from this keyframe to the end of its run (only this one when appended).
+        let mut index = id.index;
+        loop {
+            let previous = index.checked_sub(1).and_then(|p| chain.get(&p)).copied();
+            let Some(link) = chain.get_mut(&index) else { break };
+            match previous {
+                Some(previous) => {
+                    let ad = adjoint(&previous.world_from_sensor);
+                    link.run_start = previous.run_start;
+                    link.prefix_covariance =
+                        previous.prefix_covariance + ad * link.step_covariance * ad.transpose();
+                }
+                None => {
+                    link.run_start = index;
+                    link.prefix_covariance = Matrix6::zeros();
+                }
+            }
+            if appended {
+                break;
+            }
+            let Some(next) = index.checked_add(1) else { break };
+            index = next;
+        }
     }
 
     /// The odometry pose of a keyframe.
@@ -104,13 +141,14 @@ impl OdometryChains {
         } else {
             (source.index, target.index)
         };
-        let low_pose = chain.get(&low)?.world_from_sensor;
-        let mut covariance = Matrix6::zeros();
-        for index in low + 1..=high {
-            let previous = chain.get(&(index - 1))?.world_from_sensor;
-            let ad = adjoint(&(low_pose.inverse() * previous));
-            covariance += ad * chain.get(&index)?.step_covariance * ad.transpose();
+        let (low_link, high_link) = (chain.get(&low)?, chain.get(&high)?);
+        if low_link.run_start != high_link.run_start {
+            return None;
         }
+        let ad = adjoint(&low_link.world_from_sensor.inverse());
+        let mut covariance =
+            ad * (high_link.prefix_covariance - low_link.prefix_covariance) * ad.transpose();
+        covariance = (covariance + covariance.transpose()) * 0.5;
         let target_from_source = chain.get(&target.index)?.world_from_sensor.inverse()
             * chain.get(&source.index)?.world_from_sensor;
         if target.index > source.index {
@@ -164,6 +202,60 @@ mod tests {
                 .between(KeyframeId::new(2, 1), KeyframeId::new(2, 9))
                 .is_none()
         );
+    }
+
+    /// The covariance of `T_low⁻¹ T_high` by explicit propagation over every step in between.
+    fn propagated(chain: &[(Pose, Information)], low: usize, high: usize) -> Matrix6<f64> {
+        let low_pose = chain[low].0;
+        let mut covariance = Matrix6::zeros();
+        for index in low + 1..=high {
+            let ad = adjoint(&(low_pose.inverse() * chain[index - 1].0));
+            covariance += ad * chain[index].1 * ad.transpose();
+        }
+        covariance
+    }
+
+    #[test]
+    fn prefixes_match_explicit_propagation_in_any_insertion_order() {
+        let mut truth = Vec::new();
+        let mut pose = Pose::new(Vector3::new(300.0, -200.0, 5.0), Vector3::new(0.0, 0.0, 1.0));
+        for k in 0..60 {
+            let step = Pose::new(
+                Vector3::new(1.5, 0.1 * f64::from(k % 7), 0.02),
+                Vector3::new(0.01, -0.02, 0.05 * f64::from(k % 5)),
+            );
+            pose *= step;
+            truth.push((pose, Information::identity() * (1e-4 * f64::from(k % 4 + 1))));
+        }
+        let check = |chains: &OdometryChains| {
+            for (low, high) in [(0, 59), (10, 11), (17, 42), (30, 5)] {
+                let got = chains
+                    .between(KeyframeId::new(1, low as u32), KeyframeId::new(1, high as u32))
+                    .unwrap();
+                let (l, h) = (low.min(high), low.max(high));
+                let mut expected = propagated(&truth, l, h);
+                if low > high {
+                    let ad = adjoint(&got.target_from_source);
+                    expected = ad * expected * ad.transpose();
+                }
+                let error = (got.covariance - expected).abs().max();
+                assert!(error <= 1e-9 * expected.abs().max(), "{low} -> {high}: off by {error}");
+            }
+        };
+        // In order.
+        let mut chains = OdometryChains::default();
+        for (k, (pose, covariance)) in truth.iter().enumerate() {
+            chains.insert(KeyframeId::new(1, k as u32), *pose, *covariance);
+        }
+        check(&chains);
+        // Out of order, with a gap that is filled last: no answer across the gap until then.
+        let mut chains = OdometryChains::default();
+        for k in (0..60).rev().filter(|k| *k != 25) {
+            chains.insert(KeyframeId::new(1, k as u32), truth[k].0, truth[k].1);
+        }
+        assert!(chains.between(KeyframeId::new(1, 20), KeyframeId::new(1, 30)).is_none());
+        chains.insert(KeyframeId::new(1, 25), truth[25].0, truth[25].1);
+        check(&chains);
     }
 
     #[test]
