@@ -146,8 +146,7 @@ impl OdometryChains {
             return None;
         }
         let ad = adjoint(&low_link.world_from_sensor.inverse());
-        let mut covariance =
-            ad * (high_link.prefix_covariance - low_link.prefix_covariance) * ad.transpose();
+        let mut covariance = ad * (high_link.prefix_covariance - low_link.prefix_covariance) * ad.transpose();
         covariance = (covariance + covariance.transpose()) * 0.5;
         let target_from_source = chain.get(&target.index)?.world_from_sensor.inverse()
             * chain.get(&source.index)?.world_from_sensor;
@@ -239,7 +238,10 @@ mod tests {
                     expected = ad * expected * ad.transpose();
                 }
                 let error = (got.covariance - expected).abs().max();
-                assert!(error <= 1e-9 * expected.abs().max(), "{low} -> {high}: off by {error}");
+                assert!(
+                    error <= 1e-9 * expected.abs().max(),
+                    "{low} -> {high}: off by {error}"
+                );
             }
         };
         // In order.
@@ -253,7 +255,11 @@ mod tests {
         for k in (0..60).rev().filter(|k| *k != 25) {
             chains.insert(KeyframeId::new(1, k as u32), truth[k].0, truth[k].1);
         }
-        assert!(chains.between(KeyframeId::new(1, 20), KeyframeId::new(1, 30)).is_none());
+        assert!(
+            chains
+                .between(KeyframeId::new(1, 20), KeyframeId::new(1, 30))
+                .is_none()
+        );
         chains.insert(KeyframeId::new(1, 25), truth[25].0, truth[25].1);
         check(&chains);
     }
