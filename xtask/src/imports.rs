@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 
 /// The crates held to the rule, by folder.
-pub const CHECKED_CRATES: &[&str] = &["framework/runtime"];
+pub const CHECKED_CRATES: &[&str] = &["framework/runtime", "framework/ipc", "plugins/transport-loopback"];
 
 /// The name `lib.rs` (or `main.rs`) goes by in the import graph.
 const ROOT: &str = "<crate root>";

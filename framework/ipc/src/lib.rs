@@ -11,6 +11,7 @@
 //!   publishers that died.
 
 mod error;
+mod events;
 mod node;
 mod port;
 mod topic;

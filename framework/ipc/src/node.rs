@@ -11,15 +11,9 @@ use iceoryx2::service::port_factory::event::PortFactory as EventFactory;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory as PubSubFactory;
 
 use crate::error::{IpcError, IpcResult};
+use crate::events::{PUBLISHER_DIED_EVENT, PUBLISHER_LEFT_EVENT};
 use crate::port::{TopicPublisher, TopicSubscriber};
 use crate::topic::Topic;
-
-/// Event id a publisher sends after each sample.
-pub(crate) const SAMPLE_EVENT: usize = 1;
-/// Event id iceoryx2 sends when a publisher's notifier is dropped (clean shutdown).
-pub(crate) const PUBLISHER_LEFT_EVENT: usize = 2;
-/// Event id iceoryx2 sends when a dead publisher's notifier is cleaned up (crash).
-pub(crate) const PUBLISHER_DIED_EVENT: usize = 3;
 
 /// The publish-subscribe and event services of one topic.
 pub(crate) type TopicServices<S, T> = (

@@ -19,7 +19,7 @@ use iceoryx2::service::port_factory::publish_subscribe::PortFactory as PubSubFac
 use skid_core::CloudView;
 
 use crate::error::{IpcError, IpcResult};
-use crate::node::{PUBLISHER_DIED_EVENT, PUBLISHER_LEFT_EVENT, SAMPLE_EVENT};
+use crate::events::{PUBLISHER_DIED_EVENT, PUBLISHER_LEFT_EVENT, SAMPLE_EVENT};
 use crate::topic::{Keyframes, Topic};
 
 fn io_error(operation: &'static str, service: &str, error: impl std::fmt::Debug) -> IpcError {

@@ -14,8 +14,17 @@ pub struct LoopbackEndpoint {
     robot: RobotId,
 }
 
+impl LoopbackHub {
+    /// Attaches `robot`; a robot that is attached already is an error. Dropping the endpoint detaches it
+    /// (its undelivered messages are lost, as when a robot's process dies); it may attach again later.
+    pub fn endpoint(&self, robot: RobotId) -> Result<LoopbackEndpoint, PluginError> {
+        self.attach(robot)?;
+        Ok(LoopbackEndpoint::new(self.clone(), robot))
+    }
+}
+
 impl LoopbackEndpoint {
-    pub(crate) fn new(hub: LoopbackHub, robot: RobotId) -> Self {
+    fn new(hub: LoopbackHub, robot: RobotId) -> Self {
         Self { hub, robot }
     }
 

@@ -17,7 +17,6 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use skid_core::{PluginError, RobotId};
 
-use crate::endpoint::LoopbackEndpoint;
 use crate::link::LinkModel;
 use crate::stats::{HubStats, LinkStats};
 
@@ -208,9 +207,9 @@ impl LoopbackHub {
             .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
-    /// Attaches `robot`; a robot that is attached already is an error. Dropping the endpoint detaches it
-    /// (its undelivered messages are lost, as when a robot's process dies); it may attach again later.
-    pub fn endpoint(&self, robot: RobotId) -> Result<LoopbackEndpoint, PluginError> {
+    /// Gives `robot` an inbox; a robot that is attached already is an error (the endpoint is made in
+    /// `endpoint.rs`, [`LoopbackHub::endpoint`]).
+    pub(crate) fn attach(&self, robot: RobotId) -> Result<(), PluginError> {
         let mut state = self.lock();
         if state.inboxes.contains_key(&robot) {
             return Err(PluginError::failed(
@@ -219,8 +218,7 @@ impl LoopbackHub {
             ));
         }
         state.inboxes.insert(robot, Inbox::default());
-        drop(state);
-        Ok(LoopbackEndpoint::new(self.clone(), robot))
+        Ok(())
     }
 
     /// The hub's current time in nanoseconds.
