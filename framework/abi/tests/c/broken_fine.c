@@ -4,8 +4,9 @@
  *   behaviour = "scaled"           refine returns a matrix that is not a rigid motion;
  *   behaviour = "fails"            refine returns FAILED with a message;
  *   behaviour = "honest"           refine returns the guess, converged;
- *   behaviour = "racy"             refine returns the guess through a global scratch buffer it sleeps
- *                                  on, so instances running at the same time read each other's guess.
+ *   behaviour = "racy"             refine returns the guess through a global scratch buffer, and waits
+ *                                  (up to 100 ms) for another call to be inside at the same time, so
+ *                                  instances run together read each other's guess.
  * A second plugin, `overcounting_liar`, has prepared clouds that claim a point more than they were given.
  * Compiled with -DSKID_FIXTURE_NULL_ENTRY, the function table has a null `refine`, and with
  * -DSKID_FIXTURE_WRONG_LAYOUT the declaration carries another wire-layout fingerprint: either library
@@ -14,6 +15,7 @@
 
 #define _POSIX_C_SOURCE 200809L
 
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -24,6 +26,8 @@ enum Behaviour { HONEST, LONG_FAILURE, SCALED, FAILS, RACY };
 
 /* The racy behaviour's scratch buffer, shared by every instance: the defect the threading checks catch. */
 static SkidAbiTransform SCRATCH;
+/* How many racy calls are inside `refine` now. */
+static atomic_int INSIDE;
 
 typedef struct Instance {
     enum Behaviour behaviour;
@@ -113,10 +117,13 @@ static SkidStatus refine(SkidHandle handle, SkidHandle target, SkidHandle source
         case FAILS:
             return fail(error, SkidStatus_FAILED, "the liar gives up");
         case RACY: {
-            struct timespec pause = {0, 2000000};
+            struct timespec pause = {0, 500000};
             SCRATCH = *guess;
-            nanosleep(&pause, NULL);
+            atomic_fetch_add(&INSIDE, 1);
+            for (int wait = 0; wait < 200 && atomic_load(&INSIDE) < 2; ++wait) nanosleep(&pause, NULL);
             out->target_from_source = SCRATCH;
+            nanosleep(&pause, NULL);
+            atomic_fetch_sub(&INSIDE, 1);
             break;
         }
         default:
