@@ -5,6 +5,7 @@
 use std::time::Duration;
 
 use skid_config::ResolvedConfig;
+use skid_core::slots::Destination;
 use skid_protocol::{Incoming, Message};
 
 use crate::error::RuntimeError;
@@ -13,19 +14,24 @@ use crate::host::RobotHost;
 /// Encodes and sends messages from `robot` to their destinations. A send that fails (link down,
 /// oversized) is logged: a robot never stops because a peer cannot be reached.
 pub(crate) fn send_all(robot: &mut RobotHost, messages: Vec<Message>) {
+    for message in messages {
+        let destination = crate::messages::destination(robot.robot, &message);
+        send_to(robot, destination, message);
+    }
+}
+
+/// Encodes and sends one message from `robot` to `destination`; a failure is logged, never fatal.
+pub(crate) fn send_to(robot: &mut RobotHost, destination: Destination, message: Message) {
     let Some(transport) = robot.plugins.transport.as_mut() else {
         return;
     };
-    for message in messages {
-        let destination = crate::messages::destination(robot.robot, &message);
-        match robot.protocol.encode(&message) {
-            Ok(bytes) => {
-                if let Err(error) = transport.send(destination, &bytes) {
-                    tracing::warn!(robot = %robot.robot, %error, "send failed");
-                }
+    match robot.protocol.encode(&message) {
+        Ok(bytes) => {
+            if let Err(error) = transport.send(destination, &bytes) {
+                tracing::warn!(robot = %robot.robot, %error, "send failed");
             }
-            Err(error) => tracing::warn!(robot = %robot.robot, %error, "message not encoded"),
         }
+        Err(error) => tracing::warn!(robot = %robot.robot, %error, "message not encoded"),
     }
 }
 
@@ -69,17 +75,8 @@ pub(crate) fn deliver_filtered(
         }
     }
     send_all(robot, outbox);
-    if let Some(transport) = robot.plugins.transport.as_mut() {
-        for (to, message) in replies {
-            match robot.protocol.encode(&message) {
-                Ok(bytes) => {
-                    if let Err(error) = transport.send(skid_core::slots::Destination::Robot(to), &bytes) {
-                        tracing::warn!(robot = %robot.robot, %error, "reply failed");
-                    }
-                }
-                Err(error) => tracing::warn!(robot = %robot.robot, %error, "reply not encoded"),
-            }
-        }
+    for (to, message) in replies {
+        send_to(robot, Destination::Robot(to), message);
     }
     Ok(count)
 }

@@ -22,7 +22,7 @@ use skid_protocol::{Arrival, Capabilities, Message, PeerStatus};
 
 use crate::catchup::CatchUp;
 use crate::clock::{CLOUD_RETRY_NANOS, HostClock};
-use crate::delivery::{deliver_filtered, send_all};
+use crate::delivery::{deliver_filtered, send_all, send_to};
 use crate::error::RuntimeError;
 use crate::fleet::{Fleet, build_host};
 use crate::host::RobotHost;
@@ -195,7 +195,9 @@ impl SingleRobot {
             let replay = self.catch_up.replay_for(peer);
             tracing::debug!(to = %peer, messages = replay.len(), "catching a peer up");
             let robot = &mut self.fleet.robots[0];
-            send_to(robot, Destination::Robot(peer), replay);
+            for message in replay {
+                send_to(robot, Destination::Robot(peer), message);
+            }
         }
         Ok(())
     }
@@ -229,24 +231,7 @@ impl SingleRobot {
     }
 
     fn say(&mut self, message: Message) {
-        send_to(&mut self.fleet.robots[0], Destination::AllPeers, vec![message]);
-    }
-}
-
-/// Encodes and sends `messages` to one destination; failures are logged, never fatal.
-fn send_to(robot: &mut RobotHost, destination: Destination, messages: Vec<Message>) {
-    let Some(transport) = robot.plugins.transport.as_mut() else {
-        return;
-    };
-    for message in messages {
-        match robot.protocol.encode(&message) {
-            Ok(bytes) => {
-                if let Err(error) = transport.send(destination, &bytes) {
-                    tracing::warn!(robot = %robot.robot, %error, "send failed");
-                }
-            }
-            Err(error) => tracing::warn!(robot = %robot.robot, %error, "message not encoded"),
-        }
+        send_to(&mut self.fleet.robots[0], Destination::AllPeers, message);
     }
 }
 

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use skid_abi::LoadedPlugin;
-use skid_core::{Params, PluginContext, Slot};
+use skid_core::{PluginContext, Slot};
 use skid_testkit::backend::check_backend;
 use skid_testkit::descriptor::{DescriptorExpectations, check_descriptor};
 use skid_testkit::odometry::{OdometryExpectations, check_odometry};
@@ -201,7 +201,7 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
         Slot::Odometry => match plugin.create_odometry(&defaults, &context) {
             Some(Ok(_)) => vec![run_check("recovers a known motion; bad scans are errors", || {
                 check_odometry(
-                    || make_odometry(plugin, &defaults, &context),
+                    || Box::new(created(plugin.create_odometry(&defaults, &context))),
                     OdometryExpectations::default(),
                 )
             })],
@@ -212,18 +212,20 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
             if let Some(Err(error)) = plugin.create_descriptor(&defaults, &context) {
                 return not_created(name, error);
             }
-            // Dynamic descriptors are retrieved by an exact L2 index, which gives no yaw hint.
+            // A yaw hint is optional across the ABI (the host's exact L2 index, used when a plugin brings
+            // no index of its own, gives none), so the suite does not require one.
             let expect = DescriptorExpectations {
                 yaw_hint_tolerance_deg: None,
                 ..DescriptorExpectations::default()
             };
+            let fresh = || -> Box<dyn skid_core::slots::Descriptor> {
+                Box::new(created(plugin.create_descriptor(&defaults, &context)))
+            };
             vec![
                 run_check("yaw invariance, retrieval, degenerate clouds", || {
-                    check_descriptor(|| make_descriptor(plugin, &defaults, &context), &expect)
+                    check_descriptor(fresh, &expect)
                 }),
-                run_check(TWO_THREADS, || {
-                    descriptor_instances_agree_under_threads(|| make_descriptor(plugin, &defaults, &context))
-                }),
+                run_check(TWO_THREADS, || descriptor_instances_agree_under_threads(fresh)),
             ]
         }
         other => not_created(
@@ -233,37 +235,10 @@ fn check_plugin(plugin: &LoadedPlugin) -> Vec<Outcome> {
     }
 }
 
-/// An instance the suite made again after it was built once; a failure now fails the check.
+/// An instance the suite made again after it was built once (the odometry and descriptor suites make a
+/// fresh one per case); a failure now fails the check.
 #[allow(clippy::expect_used)] // Inside a check: a panic is the check's way to fail, caught by `run_check`.
 fn created<T>(made: Option<skid_core::PluginResult<T>>) -> T {
     made.expect("the same slot as before")
         .expect("builds from its default parameters")
-}
-
-/// A fresh odometry for the suite; a failure here fails the check (it was built once before).
-#[allow(clippy::expect_used)] // Inside a check: a panic is the check's way to fail, caught by `run_check`.
-fn make_odometry(
-    plugin: &LoadedPlugin,
-    params: &Params,
-    context: &PluginContext,
-) -> Box<dyn skid_core::slots::Odometry> {
-    let odometry = plugin
-        .create_odometry(params, context)
-        .expect("an odometry plugin")
-        .expect("builds from its default parameters");
-    Box::new(odometry)
-}
-
-/// A fresh descriptor for the suite; a failure here fails the check (it was built once before).
-#[allow(clippy::expect_used)] // Inside a check: a panic is the check's way to fail, caught by `run_check`.
-fn make_descriptor(
-    plugin: &LoadedPlugin,
-    params: &Params,
-    context: &PluginContext,
-) -> Box<dyn skid_core::slots::Descriptor> {
-    let descriptor = plugin
-        .create_descriptor(params, context)
-        .expect("a descriptor plugin")
-        .expect("builds from its default parameters");
-    Box::new(descriptor)
 }
