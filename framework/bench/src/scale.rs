@@ -10,9 +10,8 @@ use std::sync::{Arc, Mutex, PoisonError};
 
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
-use skid_config::ConfigSources;
 use skid_core::{Registry, RobotId};
-use skid_runtime::{Fleet, HostObserver, RobotHost, RunMetrics, RunSummary};
+use skid_runtime::{HostObserver, RobotHost, RunMetrics, RunSummary};
 
 /// One fleet size of the sweep.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -133,18 +132,8 @@ pub fn run_fleet(name: &str, sets: Vec<String>, registry: &Registry, out: &Path)
         "deploy.mode=threads".to_owned(),
     ];
     all_sets.extend(sets);
-    let sources = ConfigSources {
-        config_dir: Some(crate::profile::workspace_root().join("configs")),
-        profile: None,
-        overlays: Vec::new(),
-        sets: all_sets,
-        use_env: false,
-    };
-    let config = sources
-        .load(registry)
-        .with_context(|| format!("configuring {name}"))?;
-    let robots = config.run.robots;
-    let mut fleet = Fleet::build(config, registry).with_context(|| format!("building {name}"))?;
+    let mut fleet = crate::slam::build_fleet(name, None, all_sets, registry)?;
+    let robots = fleet.config.run.robots;
     let samples = Arc::new(Mutex::new(Vec::new()));
     for robot in 0..robots {
         let timeline = Timeline {

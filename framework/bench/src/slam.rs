@@ -89,6 +89,27 @@ pub struct SlamRow {
     pub note: String,
 }
 
+/// The fleet of `configs/default.toml` with `profile` (from `configs/profiles/`) and the `--set`-style
+/// `sets` on top, named `name` in errors.
+pub fn build_fleet(
+    name: &str,
+    profile: Option<String>,
+    sets: Vec<String>,
+    registry: &Registry,
+) -> Result<Fleet> {
+    let sources = ConfigSources {
+        config_dir: Some(crate::profile::workspace_root().join("configs")),
+        profile,
+        overlays: Vec::new(),
+        sets,
+        use_env: false,
+    };
+    let config = sources
+        .load(registry)
+        .with_context(|| format!("configuring {name}"))?;
+    Fleet::build(config, registry).with_context(|| format!("building {name}"))
+}
+
 /// Runs one world with one pipeline and evaluates it: one row per robot β ≥ 1.
 pub fn run_one(
     settings: &SlamSettings,
@@ -106,17 +127,7 @@ pub fn run_one(
         format!("run.output_dir=\"{}\"", out.join("runs").display()),
         format!("source.sim.world={world}"),
     ]);
-    let sources = ConfigSources {
-        config_dir: Some(crate::profile::workspace_root().join("configs")),
-        profile: pipeline.profile.clone(),
-        overlays: Vec::new(),
-        sets,
-        use_env: false,
-    };
-    let config = sources
-        .load(registry)
-        .with_context(|| format!("configuring {name}"))?;
-    let mut fleet = Fleet::build(config, registry).with_context(|| format!("building {name}"))?;
+    let mut fleet = build_fleet(&name, pipeline.profile.clone(), sets, registry)?;
     let mut last = std::time::Instant::now();
     let summary = fleet
         .run_lockstep(|scans| {
