@@ -17,6 +17,7 @@ mod error;
 mod lz4_block;
 mod lz4_frame;
 mod mcap_file;
+mod mcap_records;
 pub mod msgs;
 mod ros1;
 mod sqlite;

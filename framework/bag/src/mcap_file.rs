@@ -18,6 +18,7 @@ use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use crate::connection::{BufferPool, Connection, MessageReader, RawMessage};
 use crate::error::BagError;
+use crate::mcap_records::parse_known;
 use crate::wire::Encoding;
 
 /// The magic bytes at both ends of an MCAP file.
@@ -121,7 +122,9 @@ impl McapReader {
         let summary_complete = read_summary(path, &mut file, file_len, &mut declarations)?;
         file.seek(SeekFrom::Start(0)).map_err(|e| BagError::io(path, e))?;
         let options = LinearReaderOptions::default()
-            .with_record_length_limit(MAX_RECORD_BYTES)
+            // No record is longer than the file that holds it (a lying length would otherwise reserve
+            // up to the limit before the read comes up short).
+            .with_record_length_limit(MAX_RECORD_BYTES.min(usize::try_from(file_len).unwrap_or(usize::MAX)))
             .with_skip_end_magic(true);
         Ok(Self {
             path: path.to_owned(),
@@ -180,9 +183,11 @@ fn read_summary(
                 BagError::malformed(path, offset, "a summary record runs past the summary section")
             })?;
         let body = &tail[8..8 + length as usize];
-        let record = mcap::parse_record(opcode, body)
+        let record = parse_known(opcode, body)
             .map_err(|e| BagError::malformed(path, offset, format!("summary record 0x{opcode:02x}: {e}")))?;
-        declarations.declare(&record);
+        if let Some(record) = record {
+            declarations.declare(&record);
+        }
         rest = &tail[8 + length as usize..];
     }
     Ok(true)
@@ -235,8 +240,11 @@ impl MessageReader for McapReader {
                     *bytes_read += read as u64;
                 }
                 LinearReadEvent::Record { data, opcode } => {
-                    let record = mcap::parse_record(opcode, data)
+                    let record = parse_known(opcode, data)
                         .map_err(|e| malformed(format!("record 0x{opcode:02x}: {e}")))?;
+                    let Some(record) = record else {
+                        continue;
+                    };
                     if declarations.declare(&record) {
                         continue;
                     }

@@ -43,6 +43,11 @@ pub enum CodecError {
 /// Largest grid coordinate used, so that Morton keys fit 21 bits per axis after offsetting.
 const MAX_GRID: i64 = (1 << 20) - 1;
 
+/// Coarsest grid accepted, in metres per cell: any coarser and the grid's far corner (`MAX_GRID` cells
+/// out) would leave the range `f32` coordinates hold meaningfully (found by fuzzing: a resolution
+/// of 3e38 decoded to infinite points).
+pub const MAX_RESOLUTION_M: f32 = 100.0;
+
 /// A quantised, delta-coded point cloud.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CompressedPoints {
@@ -58,7 +63,7 @@ pub struct CompressedPoints {
 impl CompressedPoints {
     /// Encodes `points`; non-finite points and points beyond ±(2²⁰−1)·resolution are refused.
     pub fn encode(points: &[Point], resolution_m: f32, with_intensity: bool) -> Result<Self, CodecError> {
-        if !(resolution_m.is_finite() && resolution_m > 0.0) {
+        if !(resolution_m.is_finite() && resolution_m > 0.0 && resolution_m <= MAX_RESOLUTION_M) {
             return Err(CodecError::BadResolution(resolution_m));
         }
         let max_m = MAX_GRID as f64 * f64::from(resolution_m);
@@ -121,7 +126,10 @@ impl CompressedPoints {
 
     /// Checks the structure (resolution, lengths) without decoding the points.
     pub fn validate(&self) -> Result<(), CodecError> {
-        if !(self.resolution_m.is_finite() && self.resolution_m > 0.0) {
+        if !(self.resolution_m.is_finite()
+            && self.resolution_m > 0.0
+            && self.resolution_m <= MAX_RESOLUTION_M)
+        {
             return Err(CodecError::BadResolution(self.resolution_m));
         }
         if !self.deltas.len().is_multiple_of(3) {

@@ -232,6 +232,10 @@ fn single(tokens: &mut Tokens<'_>, what: &str) -> Result<usize, IoError> {
     Ok(value)
 }
 
+/// Most values one field may hold per point (PCL's largest histogram features have a few hundred; a
+/// larger COUNT is a corrupt header, and an unchecked one sized buffers of petabytes, found by fuzzing).
+pub const MAX_FIELD_COUNT: usize = 1 << 16;
+
 /// Combines the FIELDS/SIZE/TYPE/COUNT lines, checking that they agree and that every size fits its type.
 fn build_fields(
     path: &Path,
@@ -263,11 +267,13 @@ fn build_fields(
     let mut fields = Vec::with_capacity(names.len());
     for (i, name) in names.into_iter().enumerate() {
         let (size, letter, count) = (sizes[i], types[i], counts[i]);
-        if count == 0 {
+        if count == 0 || count > MAX_FIELD_COUNT {
             return Err(IoError::at_line(
                 path,
                 count_line,
-                format!("field \"{name}\" has COUNT 0"),
+                format!(
+                    "field \"{name}\" has COUNT {count}; SKiD reads 1 to {MAX_FIELD_COUNT} values per field"
+                ),
             ));
         }
         let kind = match (letter, size) {
