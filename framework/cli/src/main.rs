@@ -158,6 +158,9 @@ enum Command {
     /// Inspect ROS bags and MCAP files.
     #[command(subcommand)]
     Bag(BagCommand),
+    /// Fleet set-up for real networks.
+    #[command(subcommand)]
+    Fleet(FleetCommand),
     /// The simulator on its own: export KITTI-format folders or a preview PNG.
     Sim {
         #[command(subcommand)]
@@ -191,6 +194,22 @@ enum BagCommand {
         /// Print one JSON line instead of the table.
         #[arg(long)]
         json: bool,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+enum FleetCommand {
+    /// Write a test fleet's certificates for the zenoh transport's mutual TLS: a CA (`ca.pem`, `ca.key`)
+    /// and `robot-<id>.pem`/`.key` for robots 0..ROBOTS, and print the `[transport.zenoh]` lines of each.
+    Certs {
+        /// Number of robots.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+        robots: u32,
+        /// Years the certificates stay valid.
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(i32).range(1..=30))]
+        years: i32,
+        /// The folder to write into (created when missing).
+        dir: PathBuf,
     },
 }
 
@@ -433,6 +452,9 @@ fn main() -> ExitCode {
             command: SimCommand::Preview { flags, out, size_px },
         } => commands::extra::sim_preview(&flags.args(), &out, size_px),
         Command::Bag(BagCommand::Info { path, json }) => commands::bag::info(&path, json),
+        Command::Fleet(FleetCommand::Certs { robots, years, dir }) => {
+            commands::fleet::certs(robots, years, &dir)
+        }
         Command::Odometry { folder, out, layers } => {
             commands::tools::odometry(&registry, &folder, out.as_deref(), &layers)
         }

@@ -52,6 +52,8 @@ fn one_robot_live_over_rmw_zenoh_and_one_from_a_bag() {
             format!("deploy.robot={index}"),
             "deploy.linger_s=3".to_owned(),
             "transport.plugin=zenoh".to_owned(),
+            // Plain TCP on loopback, asked for by name (the fleet tests cover mutual TLS).
+            "transport.zenoh.security=\"plain_tcp\"".to_owned(),
             format!("transport.zenoh.listen=[{}]", endpoint(mine)),
             format!("transport.zenoh.connect=[{}]", endpoint(peer)),
             format!(

@@ -1,5 +1,9 @@
 //! Parameters of the `zenoh` transport (`[transport.zenoh]`) and their translation into a zenoh
-//! configuration: peer mode, explicit endpoints, no multicast or gossip scouting, and a receive limit.
+//! configuration: peer mode, explicit endpoints, no multicast or gossip scouting, a receive limit, and
+//! by default mutual TLS with an access-control list that binds each robot's certificate to its keys
+//! (see [`crate::access`]).
+
+use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 use skid_core::PluginError;
@@ -13,6 +17,31 @@ pub enum Congestion {
     Drop,
     /// Wait until the message can be queued.
     Block,
+}
+
+/// How the robots' links are protected.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Security {
+    /// TLS with both ends authenticated by the fleet's CA (endpoints `tls/host:port`), and zenoh's
+    /// access control: a robot's certificate may publish only under its own robot id.
+    #[default]
+    MutualTls,
+    /// Plain TCP (endpoints `tcp/host:port`): no encryption and no authentication, any device on the
+    /// network can join. Only for a trusted network; the transport warns when it opens.
+    PlainTcp,
+}
+
+/// The fleet's CA and this robot's certificate and key, PEM files (`skid fleet certs` makes a set).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct TlsFiles {
+    /// The fleet CA's certificate: peers must present a certificate it signed.
+    pub ca_certificate: PathBuf,
+    /// This robot's certificate (common name `robot-<id>`), signed by the fleet CA.
+    pub certificate: PathBuf,
+    /// This robot's private key.
+    pub private_key: PathBuf,
 }
 
 /// Parameters of the `zenoh` transport.
@@ -32,27 +61,35 @@ pub struct ZenohConfig {
     pub congestion: Congestion,
     /// Multicast scouting on the local network (off: only the explicit endpoints are used).
     pub multicast_scouting: bool,
+    /// `mutual_tls` (the default) or `plain_tcp`, which must be asked for by name.
+    pub security: Security,
+    /// Certificate files for `mutual_tls`.
+    pub tls: TlsFiles,
 }
 
 impl Default for ZenohConfig {
     fn default() -> Self {
         Self {
-            listen: vec!["tcp/0.0.0.0:7447".into()],
+            listen: vec!["tls/0.0.0.0:7447".into()],
             connect: Vec::new(),
             key_prefix: "skid".into(),
             max_message_bytes: 8 << 20,
             max_queued_bytes: 64 << 20,
             congestion: Congestion::Drop,
             multicast_scouting: false,
+            security: Security::MutualTls,
+            tls: TlsFiles::default(),
         }
     }
 }
 
+/// `value` as a JSON string.
+fn json_string(value: &str) -> String {
+    format!("\"{}\"", value.replace('\\', "\\\\").replace('"', "\\\""))
+}
+
 fn json_strings(values: &[String]) -> String {
-    let quoted: Vec<String> = values
-        .iter()
-        .map(|v| format!("\"{}\"", v.replace('\\', "\\\\").replace('"', "\\\"")))
-        .collect();
+    let quoted: Vec<String> = values.iter().map(|v| json_string(v)).collect();
     format!("[{}]", quoted.join(","))
 }
 
@@ -78,13 +115,57 @@ impl ZenohConfig {
         if self.max_message_bytes == 0 || self.max_queued_bytes < self.max_message_bytes {
             return bad("max_message_bytes must be positive and at most max_queued_bytes".into());
         }
+        self.validate_security()
+    }
+
+    /// Endpoints match the security mode, and TLS has its three files.
+    fn validate_security(&self) -> Result<(), PluginError> {
+        let bad = |message: String| Err(PluginError::failed("zenoh", message));
+        let scheme = match self.security {
+            Security::MutualTls => "tls/",
+            Security::PlainTcp => "tcp/",
+        };
+        let endpoints = self.listen.iter().map(|e| ("listen", e));
+        for (key, endpoint) in endpoints.chain(self.connect.iter().map(|e| ("connect", e))) {
+            if !endpoint.starts_with(scheme) {
+                return bad(format!(
+                    "{key} endpoint {endpoint:?} must start with {scheme:?} when security = {:?}{}",
+                    self.security.name(),
+                    if self.security == Security::MutualTls {
+                        " (plain TCP needs security = \"plain_tcp\", said explicitly)"
+                    } else {
+                        ""
+                    }
+                ));
+            }
+        }
+        if self.security == Security::MutualTls {
+            let files = [
+                ("tls.ca_certificate", &self.tls.ca_certificate),
+                ("tls.certificate", &self.tls.certificate),
+                ("tls.private_key", &self.tls.private_key),
+            ];
+            for (key, path) in files {
+                if path.as_os_str().is_empty() {
+                    return bad(format!(
+                        "{key} is not set: security = \"mutual_tls\" needs the fleet CA, this robot's \
+                         certificate and its key (`skid fleet certs` makes a set for testing), or \
+                         security = \"plain_tcp\" on a trusted network"
+                    ));
+                }
+                if !path.is_file() {
+                    return bad(format!("{key} = {}: no such file", path.display()));
+                }
+            }
+        }
         Ok(())
     }
 
-    /// The zenoh configuration: peer mode, these endpoints, scouting off, the receive limit.
-    pub fn to_zenoh(&self) -> Result<zenoh::Config, PluginError> {
+    /// The zenoh configuration: peer mode, these endpoints, scouting off, the receive limit; with
+    /// mutual TLS also the certificates and the access-control list of a fleet of `fleet_size` robots.
+    pub fn to_zenoh(&self, fleet_size: u32) -> Result<zenoh::Config, PluginError> {
         let mut config = zenoh::Config::default();
-        let settings = [
+        let mut settings = vec![
             ("mode", "\"peer\"".to_owned()),
             ("listen/endpoints", json_strings(&self.listen)),
             ("connect/endpoints", json_strings(&self.connect)),
@@ -96,12 +177,62 @@ impl ZenohConfig {
                 (self.max_message_bytes + 4096).to_string(),
             ),
         ];
+        if self.security == Security::MutualTls {
+            settings.extend(self.tls_settings());
+            settings.extend(crate::access::acl_settings(&self.key_prefix, fleet_size));
+        }
         for (key, value) in settings {
             config
                 .insert_json5(key, &value)
                 .map_err(|error| PluginError::failed("zenoh", format!("config {key} = {value}: {error}")))?;
         }
         Ok(config)
+    }
+}
+
+impl Security {
+    /// The name the config file uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::MutualTls => "mutual_tls",
+            Self::PlainTcp => "plain_tcp",
+        }
+    }
+}
+
+impl ZenohConfig {
+    /// The TLS link settings: the same certificate for both directions, the peer's certificate required
+    /// and checked against the fleet CA. Names are not checked against host names: robots are reached by
+    /// address, and what identifies a robot is its certificate's common name (checked by the ACL).
+    fn tls_settings(&self) -> Vec<(&'static str, String)> {
+        let path = |p: &PathBuf| json_string(&p.display().to_string());
+        vec![
+            (
+                "transport/link/tls/root_ca_certificate",
+                path(&self.tls.ca_certificate),
+            ),
+            (
+                "transport/link/tls/listen_certificate",
+                path(&self.tls.certificate),
+            ),
+            (
+                "transport/link/tls/listen_private_key",
+                path(&self.tls.private_key),
+            ),
+            (
+                "transport/link/tls/connect_certificate",
+                path(&self.tls.certificate),
+            ),
+            (
+                "transport/link/tls/connect_private_key",
+                path(&self.tls.private_key),
+            ),
+            ("transport/link/tls/enable_mtls", "true".to_owned()),
+            ("transport/link/tls/verify_name_on_connect", "false".to_owned()),
+            // The admin space answers this robot's own metrics queries (refusal counts); the ACL's
+            // default deny keeps peers out of it.
+            ("adminspace/enabled", "true".to_owned()),
+        ]
     }
 }
 

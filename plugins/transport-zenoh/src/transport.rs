@@ -1,6 +1,7 @@
 //! The `Transport` implementation over a zenoh session: keyed puts out, callback subscribers in (into a
-//! bounded queue that `poll` drains), liveliness tokens for peer presence, and a readiness check
-//! (matching subscribers) that tests and the runtime can wait on before the first burst.
+//! queue that `poll` drains, bounded in bytes per peer so a flooding peer loses only its own messages),
+//! liveliness tokens for peer presence, and a readiness check (matching subscribers) that tests and the
+//! runtime can wait on before the first burst.
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -15,13 +16,14 @@ use zenoh::qos::CongestionControl;
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::{Session, key_expr::KeyExpr};
 
-use crate::config::{Congestion, ZenohConfig};
+use crate::config::{Congestion, Security, ZenohConfig};
 
 /// What zenoh's threads hand to the robot's thread.
 #[derive(Debug, Default)]
 struct Inbox {
     queue: VecDeque<Datagram>,
-    queued_bytes: usize,
+    /// Bytes waiting in `queue`, per sending peer.
+    queued_bytes: BTreeMap<RobotId, usize>,
     last_heard: BTreeMap<RobotId, Instant>,
     alive: BTreeSet<RobotId>,
     dropped_queue_full: u64,
@@ -76,10 +78,19 @@ fn last_robot(key: &str) -> Option<RobotId> {
 }
 
 impl ZenohTransport {
-    /// Opens a zenoh session for `robot` and declares its subscribers and liveliness token.
-    pub fn open(robot: RobotId, config: ZenohConfig) -> Result<Self, PluginError> {
+    /// Opens a zenoh session for `robot` of a fleet of `fleet_size` robots (the access control admits
+    /// robots `0..fleet_size`) and declares its subscribers and liveliness token.
+    pub fn open(robot: RobotId, config: ZenohConfig, fleet_size: u32) -> Result<Self, PluginError> {
         config.validate()?;
-        let session = zenoh::open(config.to_zenoh()?)
+        if config.security == Security::PlainTcp {
+            tracing::warn!(
+                robot = %robot,
+                "zenoh runs over plain TCP (security = \"plain_tcp\"): no encryption and no authentication, \
+                 any device on the network can join the fleet and forge its messages; use mutual_tls \
+                 outside a trusted network"
+            );
+        }
+        let session = zenoh::open(config.to_zenoh(fleet_size)?)
             .wait()
             .map_err(|e| zenoh_error("open", e))?;
         let shared = Arc::new(Shared::default());
@@ -105,11 +116,12 @@ impl ZenohTransport {
                         inbox.dropped_oversized += 1;
                         return;
                     }
-                    if inbox.queued_bytes + payload.len() > max_queued {
+                    let queued = inbox.queued_bytes.entry(from).or_insert(0);
+                    if *queued + payload.len() > max_queued {
                         inbox.dropped_queue_full += 1;
                         return;
                     }
-                    inbox.queued_bytes += payload.len();
+                    *queued += payload.len();
                     inbox.queue.push_back(Datagram {
                         from,
                         payload: payload.into_owned(),
@@ -270,8 +282,26 @@ impl Transport for ZenohTransport {
                 Err(poisoned) => poisoned.into_inner().0,
             };
         }
-        inbox.queued_bytes = 0;
+        inbox.queued_bytes.clear();
         Ok(inbox.queue.drain(..).collect())
+    }
+
+    /// Messages refused before the protocol saw them: by the access control (per peer certificate,
+    /// `access_denied robot-3`), for a full per-peer queue and for their size.
+    fn refusals(&self) -> BTreeMap<String, u64> {
+        let mut refusals: BTreeMap<String, u64> = BTreeMap::new();
+        if self.config.security == Security::MutualTls {
+            for (peer, count) in crate::refusals::access_denied(&self.session) {
+                refusals.insert(format!("access_denied {peer}"), count);
+            }
+        }
+        let drops = self.receive_drops();
+        for (class, count) in [("queue_full", drops.queue_full), ("oversized", drops.oversized)] {
+            if count > 0 {
+                refusals.insert(class.to_owned(), count);
+            }
+        }
+        refusals
     }
 
     fn peers(&self) -> Vec<PeerInfo> {

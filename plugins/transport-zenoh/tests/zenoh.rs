@@ -29,21 +29,26 @@ fn endpoint(port: u16) -> String {
     format!("tcp/127.0.0.1:{port}")
 }
 
+/// Plain TCP, asked for explicitly (the mutual-TLS transport has its own tests in `mutual_tls.rs`).
 fn config(listen: u16, connect: &[u16], prefix: &str) -> ZenohConfig {
     ZenohConfig {
         listen: vec![endpoint(listen)],
         connect: connect.iter().map(|&p| endpoint(p)).collect(),
         key_prefix: prefix.into(),
+        security: Security::PlainTcp,
         ..ZenohConfig::default()
     }
 }
+
+/// Robots in the fleets of these tests.
+const FLEET_SIZE: u32 = 3;
 
 #[test]
 fn conformance_over_localhost() {
     let (pa, pb) = (free_port(), free_port());
     let prefix = format!("skid-test-{}", std::process::id());
-    let mut a = ZenohTransport::open(RobotId(0), config(pa, &[], &prefix)).unwrap();
-    let mut b = ZenohTransport::open(RobotId(1), config(pb, &[pa], &prefix)).unwrap();
+    let mut a = ZenohTransport::open(RobotId(0), config(pa, &[], &prefix), FLEET_SIZE).unwrap();
+    let mut b = ZenohTransport::open(RobotId(1), config(pb, &[pa], &prefix), FLEET_SIZE).unwrap();
     assert!(a.wait_for_peers(&[RobotId(1)], Duration::from_secs(5)).unwrap());
     assert!(b.wait_for_peers(&[RobotId(0)], Duration::from_secs(5)).unwrap());
     skid_testkit::transport::check_transport(&mut a, &mut b);
@@ -80,7 +85,22 @@ fn registry_and_config_checks() {
             .is_err()
     );
     let port = free_port();
-    let good = Params::from_toml_str(&format!("listen = [\"{}\"]", endpoint(port))).unwrap();
+    let plain_unasked = Params::from_toml_str(&format!("listen = [\"{}\"]", endpoint(port))).unwrap();
+    let error = registry
+        .transport
+        .create("zenoh", &plain_unasked, &PluginContext::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        error.contains("plain_tcp"),
+        "plain TCP only when asked for: {error}"
+    );
+    let good = Params::from_toml_str(&format!(
+        "listen = [\"{}\"]\nsecurity = \"plain_tcp\"",
+        endpoint(port)
+    ))
+    .unwrap();
     let transport = registry
         .transport
         .create("zenoh", &good, &PluginContext::default())
@@ -113,8 +133,12 @@ fn zenoh_robot_process() {
         .map(|(_, &p)| p)
         .collect();
     let prefix = std::env::var(PREFIX).unwrap();
-    let mut transport =
-        ZenohTransport::open(RobotId(robot), config(ports[robot as usize], &others, &prefix)).unwrap();
+    let mut transport = ZenohTransport::open(
+        RobotId(robot),
+        config(ports[robot as usize], &others, &prefix),
+        FLEET_SIZE,
+    )
+    .unwrap();
     let session = std::process::id();
     let mut protocol = ProtocolEndpoint::new(RobotId(robot), session, ProtocolConfig::default());
     let values: Vec<f32> = (0..100).map(|i| (robot * 100 + i) as f32).collect();

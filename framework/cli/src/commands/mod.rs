@@ -2,6 +2,7 @@
 
 pub mod bag;
 pub mod extra;
+pub mod fleet;
 pub mod pcm;
 pub mod plot;
 pub mod plugin_check;

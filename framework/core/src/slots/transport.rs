@@ -3,6 +3,7 @@
 //! The protocol (envelopes, size limits, message kinds) lives in the runtime; a transport only moves
 //! bytes, is polled (no hidden threads) and never blocks past the deadline it is given.
 
+use std::collections::BTreeMap;
 use std::time::Duration;
 
 use crate::{PluginResult, RobotId};
@@ -42,4 +43,11 @@ pub trait Transport: Send {
 
     /// The peers currently known.
     fn peers(&self) -> Vec<PeerInfo>;
+
+    /// Messages the transport refused before they reached the protocol, by class (an unauthorised
+    /// sender, a full receive budget, …); written to `summary.json`. Empty for a transport that refuses
+    /// nothing.
+    fn refusals(&self) -> BTreeMap<String, u64> {
+        BTreeMap::new()
+    }
 }
