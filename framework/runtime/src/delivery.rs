@@ -70,7 +70,10 @@ pub(crate) fn deliver_filtered(
             }
             Ok(Incoming::Dropped { .. }) => {}
             Err(error) => {
-                tracing::warn!(robot = %robot.robot, from = %datagram.from, %error, "malformed message dropped")
+                let robot_id = robot.robot;
+                robot
+                    .peer_faults
+                    .note_malformed(robot_id, datagram.from, error.class(), &error);
             }
         }
     }

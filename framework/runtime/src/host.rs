@@ -20,6 +20,7 @@ use crate::error::RuntimeError;
 use crate::frontend::{
     DetachedSource, FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome,
 };
+use crate::peer_faults::PeerFaults;
 use crate::settings::{information_from_covariance, odometry_step_covariance};
 use crate::warn_limit::WarnLimiter;
 
@@ -156,6 +157,8 @@ pub struct RobotHost {
     /// Scans the odometry refused (too few points, a stamp going backwards, …), counted and warned about
     /// at a limited rate.
     pub skipped_scans: WarnLimiter,
+    /// Well-formed peer messages refused (wrong descriptor kind, foreign loops, …), by class.
+    pub peer_faults: PeerFaults,
     pub finished: bool,
     /// Set when the front-end runs on a thread or in another process.
     pub feed: Option<Box<dyn FrontEndFeed>>,
@@ -207,6 +210,7 @@ impl RobotHost {
             points_read: 0,
             scans_read: 0,
             skipped_scans: WarnLimiter::default(),
+            peer_faults: PeerFaults::default(),
             finished: false,
             feed: None,
             optimizations: 0,

@@ -25,6 +25,7 @@ mod messages;
 mod metrics;
 mod observer;
 mod outputs;
+mod peer_faults;
 mod peers;
 mod process;
 mod run_folder;

@@ -12,6 +12,9 @@ use crate::error::RuntimeError;
 use crate::host::{PendingCandidate, RobotHost};
 use crate::messages::{CLOUD_RESOLUTION_M, cloud_request};
 
+/// Most peer loops waiting for keyframes this robot does not have (yet); more are refused.
+const MAX_DEFERRED_LOOPS: usize = 4096;
+
 impl RobotHost {
     /// Cloud requests unanswered for `period_nanos` by this robot's clock, sent again: the request or the
     /// reply was lost, or the peer was away. Each retry doubles the wait (up to 16 periods), so replies
@@ -44,8 +47,22 @@ impl RobotHost {
             Message::Hello(_) | Message::Heartbeat(_) => {}
             Message::Descriptors(batch) => {
                 let own_kind = self.plugins.descriptor.as_ref().map(|d| d.kind().to_owned());
-                if own_kind.as_deref() != Some(batch.kind.as_str()) {
-                    tracing::debug!(robot = %self.robot, %from, kind = %batch.kind, "descriptors of another kind ignored");
+                let Some(own_kind) = own_kind else {
+                    return Ok(());
+                };
+                if let Some(stamp) = batch.entries.first().map(|entry| entry.stamp_nanos) {
+                    self.check_peer_clock(from, stamp);
+                }
+                if own_kind != batch.kind {
+                    self.peer_faults.record(
+                        self.robot,
+                        from,
+                        "descriptor_wrong_kind",
+                        format_args!(
+                            "descriptors of kind {:?}, this robot matches {own_kind:?}",
+                            batch.kind
+                        ),
+                    );
                     return Ok(());
                 }
                 let Some(index) = self.index.as_mut() else {
@@ -53,6 +70,12 @@ impl RobotHost {
                 };
                 for entry in batch.entries {
                     let Ok(values) = entry.values.decode() else {
+                        self.peer_faults.record(
+                            self.robot,
+                            from,
+                            "descriptor_undecodable",
+                            "descriptor values do not decode",
+                        );
                         continue;
                     };
                     let id = KeyframeId {
@@ -66,7 +89,12 @@ impl RobotHost {
                             values,
                         },
                     ) {
-                        tracing::warn!(robot = %self.robot, %from, %error, "peer descriptor refused");
+                        self.peer_faults.record(
+                            self.robot,
+                            from,
+                            "descriptor_refused",
+                            format_args!("{error}"),
+                        );
                     }
                 }
             }
@@ -92,7 +120,26 @@ impl RobotHost {
                 }
             }
             Message::Cloud(cloud) => {
+                if self.peer_clouds.contains_key(&cloud.keyframe) {
+                    // The second answer to a request that was sent again.
+                    return Ok(());
+                }
+                if !self.requested.contains_key(&cloud.keyframe) {
+                    self.peer_faults.record(
+                        self.robot,
+                        from,
+                        "cloud_unrequested",
+                        format_args!("a cloud of keyframe {} that was not requested", cloud.keyframe),
+                    );
+                    return Ok(());
+                }
                 let Ok(points) = cloud.points.decode() else {
+                    self.peer_faults.record(
+                        self.robot,
+                        from,
+                        "cloud_undecodable",
+                        format_args!("the cloud of keyframe {} does not decode", cloud.keyframe),
+                    );
                     return Ok(());
                 };
                 self.peer_clouds
@@ -110,7 +157,7 @@ impl RobotHost {
                 }
             }
             Message::OdomChain(chain) => self.on_chain(config, chain)?,
-            Message::Loops(loops) => self.on_peer_loops(config, loops, outbox)?,
+            Message::Loops(loops) => self.on_peer_loops(config, from, loops, outbox)?,
         }
         Ok(())
     }
@@ -165,6 +212,7 @@ impl RobotHost {
     fn on_peer_loops(
         &mut self,
         config: &ResolvedConfig,
+        from: RobotId,
         loops: Loops,
         outbox: &mut Vec<Message>,
     ) -> Result<(), RuntimeError> {
@@ -172,6 +220,9 @@ impl RobotHost {
         for message in loops.accepted {
             let pair = (message.target, message.source);
             if self.loop_by_pair.contains_key(&pair) {
+                continue;
+            }
+            if !self.is_shared_loop(from, pair) {
                 continue;
             }
             let (Some(target_from_source), Some(information)) = (
@@ -207,6 +258,68 @@ impl RobotHost {
             }
         }
         self.optimize(config)
+    }
+
+    /// Whether a loop a peer sent joins the sender and this robot, at a keyframe this robot has; a loop
+    /// between other robots, or naming a keyframe that does not exist here, is refused and counted.
+    fn is_shared_loop(&mut self, from: RobotId, (target, source): (KeyframeId, KeyframeId)) -> bool {
+        let robots = (target.robot, source.robot);
+        if robots != (self.robot, from) && robots != (from, self.robot) {
+            self.peer_faults.record(
+                self.robot,
+                from,
+                "loop_not_shared",
+                format_args!("a loop {target} ↔ {source} that is not between {from} and this robot"),
+            );
+            return false;
+        }
+        let own = if target.robot == self.robot {
+            target
+        } else {
+            source
+        };
+        if !self.keyframes.contains_key(&own.index) {
+            // A restarted robot hears its peers' loops before it has re-made its keyframes, so such a
+            // loop waits (deferred, outside the graph) until the keyframe exists, up to a bound.
+            if self.deferred_loops.len() >= MAX_DEFERRED_LOOPS {
+                self.peer_faults.record(
+                    self.robot,
+                    from,
+                    "loop_backlog_full",
+                    format_args!(
+                        "{MAX_DEFERRED_LOOPS} loops already wait for keyframes; loop at {own} refused"
+                    ),
+                );
+                return false;
+            }
+            self.peer_faults.record(
+                self.robot,
+                from,
+                "loop_unknown_keyframe",
+                format_args!("a loop at keyframe {own}, which this robot does not have (yet): it waits outside the graph"),
+            );
+        }
+        true
+    }
+
+    /// Warns (once per class limit) when a peer's stamp is far from this robot's newest scan stamp: its
+    /// clock is probably off. The stamps are only labels here, so nothing else changes.
+    fn check_peer_clock(&mut self, from: RobotId, stamp_nanos: u64) {
+        let Some(own) = self.scans.last().map(|scan| scan.stamp_nanos) else {
+            return;
+        };
+        let offset_nanos = own.abs_diff(stamp_nanos);
+        if offset_nanos > crate::peer_faults::CLOCK_OFFSET_WARNING_NANOS {
+            self.peer_faults.record(
+                self.robot,
+                from,
+                "clock_offset",
+                format_args!(
+                    "its stamps are {:.0} s from this robot's: is its clock set?",
+                    offset_nanos as f64 * 1e-9
+                ),
+            );
+        }
     }
 
     /// Adds deferred loops whose keyframes are now all in the back-end.

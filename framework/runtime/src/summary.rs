@@ -28,6 +28,10 @@ pub struct RobotSummary {
     /// exists (the evaluation crate adds Umeyama-aligned ATE/ARE and the α/β metric).
     pub ate_first_pose_aligned_m: Option<f64>,
     pub messages: CountersSnapshot,
+    /// Messages the transport refused before the protocol saw them (see `Transport::refusals`).
+    pub transport_refusals: BTreeMap<String, u64>,
+    /// Well-formed peer messages the robot refused, by class (see `peer_faults.rs`).
+    pub peer_faults: BTreeMap<String, u64>,
 }
 
 /// The summary of a whole run.
@@ -76,6 +80,13 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
         estimated_path_length_m: path_length_m,
         ate_first_pose_aligned_m: ate_first_pose_aligned(&trajectory, &truth),
         messages: host.protocol.counters().snapshot(),
+        transport_refusals: host
+            .plugins
+            .transport
+            .as_ref()
+            .map(|transport| transport.refusals())
+            .unwrap_or_default(),
+        peer_faults: host.peer_faults.snapshot(),
     }
 }
 
