@@ -108,4 +108,10 @@ pub const PROFILES: &[BenchProfile] = &[
         package: "skid-bench",
         binary: "skid-bench-scale",
     },
+    BenchProfile {
+        name: "zenoh-tls",
+        summary: "the zenoh transport's mutual TLS against plain TCP: bytes on the wire of the default pipeline as three robot processes, one-way latency by message size",
+        package: "skid-bench",
+        binary: "skid-bench-zenoh-tls",
+    },
 ];

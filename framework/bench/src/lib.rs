@@ -23,6 +23,7 @@ pub mod scale_report;
 pub mod slam;
 pub mod stats;
 pub mod usage;
+pub mod wire_security;
 
 pub use profile::{load_profile, run_profile};
 pub use report::{BenchArgs, Report, append_markdown, markdown_table};

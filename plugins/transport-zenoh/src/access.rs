@@ -80,7 +80,7 @@ pub fn acl_settings(prefix: &str, fleet_size: u32) -> Vec<(&'static str, String)
         "fleet_both",
         &["declare_liveliness_subscriber", "liveliness_query", "reply"],
         &["ingress", "egress"],
-        &[alive.clone()],
+        std::slice::from_ref(&alive),
     ));
     rules.push(rule(
         "fleet_out",
