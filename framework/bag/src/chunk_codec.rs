@@ -24,6 +24,17 @@ pub fn decompress_into(
     match compression {
         "bz2" => read_exactly(bzip2::read::BzDecoder::new(compressed), size, out, "bz2"),
         "lz4" => {
+            // LZ4 expands at most 255-fold: a larger size is a lie, refused before it is allocated.
+            let most = compressed
+                .len()
+                .saturating_mul(LZ4_MAX_EXPANSION)
+                .saturating_add(1 << 16);
+            if size > most {
+                return Err(format!(
+                    "lz4 data of {} bytes cannot decompress to the {size} bytes its header says",
+                    compressed.len()
+                ));
+            }
             resize_for(out, size);
             crate::lz4_frame::decompress_exact(compressed, out)
         }
@@ -33,20 +44,26 @@ pub fn decompress_into(
     }
 }
 
-fn read_exactly(mut reader: impl Read, size: usize, out: &mut Vec<u8>, name: &str) -> Result<(), String> {
-    resize_for(out, size);
-    reader.read_exact(out).map_err(|e| match e.kind() {
-        std::io::ErrorKind::UnexpectedEof => {
-            format!("{name} data decompresses to fewer bytes than the {size} its header says")
-        }
-        _ => format!("{name} data is corrupt: {e}"),
-    })?;
-    let mut extra = [0u8; 1];
-    match reader.read(&mut extra) {
-        Ok(0) => Ok(()),
-        Ok(_) => Err(format!(
+/// Largest expansion of LZ4 (a run of one byte is 255 times its encoded length at best).
+const LZ4_MAX_EXPANSION: usize = 255;
+
+/// Reads the decompressed stream into `out`, which grows only as data really comes out (a header that
+/// announces a gigabyte over a few compressed bytes allocates nothing extra; found by fuzzing), and
+/// checks it is exactly `size` bytes.
+fn read_exactly(reader: impl Read, size: usize, out: &mut Vec<u8>, name: &str) -> Result<(), String> {
+    out.clear();
+    let limit = u64::try_from(size).unwrap_or(u64::MAX).saturating_add(1);
+    reader
+        .take(limit)
+        .read_to_end(out)
+        .map_err(|e| format!("{name} data is corrupt: {e}"))?;
+    match out.len().cmp(&size) {
+        std::cmp::Ordering::Equal => Ok(()),
+        std::cmp::Ordering::Less => Err(format!(
+            "{name} data decompresses to fewer bytes than the {size} its header says"
+        )),
+        std::cmp::Ordering::Greater => Err(format!(
             "{name} data decompresses to more than the {size} bytes its header says"
         )),
-        Err(e) => Err(format!("{name} data is corrupt after {size} bytes: {e}")),
     }
 }

@@ -225,7 +225,21 @@ impl MessageReader for McapReader {
         } = self;
         while !*finished {
             let malformed = |message: String| BagError::malformed(path, *bytes_read, message);
-            let event = match reader.next_event() {
+            // The `mcap` crate's reader (0.26) subtracts a record's length from what is left of its
+            // chunk without checking it fits, which panics in builds with overflow checks (found by
+            // fuzzing); such a file is malformed, not a reason to stop the process.
+            let linear: &mut LinearReader = reader;
+            let next = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
+                let linear = linear;
+                linear.next_event()
+            }));
+            let Ok(next) = next else {
+                *finished = true;
+                return Err(malformed(
+                    "a record runs past the end of its chunk (the MCAP reader gave up here)".to_owned(),
+                ));
+            };
+            let event = match next {
                 None => {
                     *finished = true;
                     break;

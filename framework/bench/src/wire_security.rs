@@ -87,7 +87,8 @@ impl CountingRelay {
                 let Ok(outgoing) = TcpStream::connect(("127.0.0.1", target_port)) else {
                     continue;
                 };
-                let (Ok(incoming_copy), Ok(outgoing_copy)) = (incoming.try_clone(), outgoing.try_clone()) else {
+                let (Ok(incoming_copy), Ok(outgoing_copy)) = (incoming.try_clone(), outgoing.try_clone())
+                else {
                     continue;
                 };
                 let (up, down) = (Arc::clone(&counter), Arc::clone(&counter));
@@ -100,11 +101,24 @@ impl CountingRelay {
 }
 
 /// One-way latency of `payload_bytes` messages between two transports: half of each round trip.
-pub fn one_way_latency(security: Security, certs: &FleetFiles, payload_bytes: usize, rounds: usize) -> Result<Timing> {
+pub fn one_way_latency(
+    security: Security,
+    certs: &FleetFiles,
+    payload_bytes: usize,
+    rounds: usize,
+) -> Result<Timing> {
     let prefix = format!("skid-bench-tls/{}/{payload_bytes}", std::process::id());
     let port = free_port()?;
-    let mut a = ZenohTransport::open(RobotId(0), zenoh_config(security, certs, 0, Some(port), &[], &prefix), 2)?;
-    let mut b = ZenohTransport::open(RobotId(1), zenoh_config(security, certs, 1, None, &[port], &prefix), 2)?;
+    let mut a = ZenohTransport::open(
+        RobotId(0),
+        zenoh_config(security, certs, 0, Some(port), &[], &prefix),
+        2,
+    )?;
+    let mut b = ZenohTransport::open(
+        RobotId(1),
+        zenoh_config(security, certs, 1, None, &[port], &prefix),
+        2,
+    )?;
     if !(a.wait_for_peers(&[RobotId(1)], Duration::from_secs(10))?
         && b.wait_for_peers(&[RobotId(0)], Duration::from_secs(10))?)
     {
@@ -138,5 +152,6 @@ fn wait_for_one(transport: &mut ZenohTransport) -> Result<()> {
 
 /// Writes the fleet's certificates for `robots` robots under `out`.
 pub fn certificates(out: &Path, robots: u32) -> Result<FleetFiles> {
-    skid_transport_zenoh::write_fleet_certificates(&out.join("certs"), robots, 1).context("writing certificates")
+    skid_transport_zenoh::write_fleet_certificates(&out.join("certs"), robots, 1)
+        .context("writing certificates")
 }

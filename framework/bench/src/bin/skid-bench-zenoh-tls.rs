@@ -67,7 +67,9 @@ fn child(robot: &str) -> Result<()> {
         sets,
         ..ConfigSources::default()
     };
-    let config = sources.load(&registry).with_context(|| format!("configuring robot {robot}"))?;
+    let config = sources
+        .load(&registry)
+        .with_context(|| format!("configuring robot {robot}"))?;
     let mut single = SingleRobot::build(config, &registry)?;
     let summary = single.run(|_| {})?;
     std::fs::write(std::env::var(CHILD_SUMMARY)?, serde_json::to_string(&summary)?)?;
@@ -87,7 +89,10 @@ fn fleet_run(security: Security, certs: &FleetFiles, settings: &Settings, out: &
     for robot in 0..3u32 {
         let files = &certs.robots[robot as usize];
         let endpoints = |ports: &[u16]| {
-            let quoted: Vec<String> = ports.iter().map(|p| format!("\"{name}/127.0.0.1:{p}\"")).collect();
+            let quoted: Vec<String> = ports
+                .iter()
+                .map(|p| format!("\"{name}/127.0.0.1:{p}\""))
+                .collect();
             format!("[{}]", quoted.join(","))
         };
         let sets = [
@@ -97,10 +102,22 @@ fn fleet_run(security: Security, certs: &FleetFiles, settings: &Settings, out: &
             format!("transport.zenoh.security=\"{}\"", security.name()),
             format!("transport.zenoh.listen={}", endpoints(&[listen[robot as usize]])),
             format!("transport.zenoh.connect={}", endpoints(&connect[robot as usize])),
-            format!("transport.zenoh.key_prefix=\"skid-bench/{name}/{}\"", std::process::id()),
-            format!("transport.zenoh.tls.ca_certificate=\"{}\"", certs.ca_certificate.display()),
-            format!("transport.zenoh.tls.certificate=\"{}\"", files.certificate.display()),
-            format!("transport.zenoh.tls.private_key=\"{}\"", files.private_key.display()),
+            format!(
+                "transport.zenoh.key_prefix=\"skid-bench/{name}/{}\"",
+                std::process::id()
+            ),
+            format!(
+                "transport.zenoh.tls.ca_certificate=\"{}\"",
+                certs.ca_certificate.display()
+            ),
+            format!(
+                "transport.zenoh.tls.certificate=\"{}\"",
+                files.certificate.display()
+            ),
+            format!(
+                "transport.zenoh.tls.private_key=\"{}\"",
+                files.private_key.display()
+            ),
             format!("run.max_scans={}", settings.max_scans),
             format!("run.output_dir=\"{}\"", out.join("runs").display()),
             format!("run.name={name}"),
@@ -132,7 +149,10 @@ fn fleet_run(security: Security, certs: &FleetFiles, settings: &Settings, out: &
         row.ate_m.push(robot["ate_first_pose_aligned_m"].as_f64());
     }
     row.wall_s = started.elapsed().as_secs_f64();
-    row.wire_bytes = relays.iter().map(|relay| relay.bytes.load(Ordering::Relaxed)).sum();
+    row.wire_bytes = relays
+        .iter()
+        .map(|relay| relay.bytes.load(Ordering::Relaxed))
+        .sum();
     Ok(row)
 }
 
@@ -153,7 +173,10 @@ fn main() -> Result<()> {
                     median_ms: timing.median_ms,
                     p90_ms: timing.p90_ms,
                 };
-                eprintln!("{}: {bytes} B one way {:.3} ms median", row.security, row.median_ms);
+                eprintln!(
+                    "{}: {bytes} B one way {:.3} ms median",
+                    row.security, row.median_ms
+                );
                 report.push(&row)?;
                 latencies.push(row);
             }
@@ -175,7 +198,11 @@ fn markdown(fleets: &[FleetRow], latencies: &[LatencyRow]) -> String {
                     inter-robot loops | ATE per robot (m) |\n|---|---|---|---|---|---|---|\n"
         .to_owned();
     for row in fleets {
-        let ate: Vec<String> = row.ate_m.iter().map(|a| a.map_or("–".into(), |v| format!("{v:.3}"))).collect();
+        let ate: Vec<String> = row
+            .ate_m
+            .iter()
+            .map(|a| a.map_or("–".into(), |v| format!("{v:.3}")))
+            .collect();
         text.push_str(&format!(
             "| {} | {} | {} | {:.3} | {:.0} | {} | {} |\n",
             row.security,
@@ -187,7 +214,9 @@ fn markdown(fleets: &[FleetRow], latencies: &[LatencyRow]) -> String {
             ate.join(" / ")
         ));
     }
-    text.push_str("\n## One-way latency on 127.0.0.1\n\n| link | payload B | median ms | p90 ms |\n|---|---|---|---|\n");
+    text.push_str(
+        "\n## One-way latency on 127.0.0.1\n\n| link | payload B | median ms | p90 ms |\n|---|---|---|---|\n",
+    );
     for row in latencies {
         text.push_str(&format!(
             "| {} | {} | {:.3} | {:.3} |\n",
