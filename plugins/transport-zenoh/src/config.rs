@@ -48,15 +48,16 @@ pub struct TlsFiles {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct ZenohConfig {
-    /// Endpoints this robot listens on, e.g. `tcp/0.0.0.0:7447`.
+    /// Endpoints this robot listens on, e.g. `tls/0.0.0.0:7447` (`tcp/…` with `plain_tcp`).
     pub listen: Vec<String>,
-    /// Endpoints of peers to connect to, e.g. `tcp/192.168.1.12:7447`; retried until they answer.
+    /// Endpoints of peers to connect to, e.g. `tls/192.168.1.12:7447`; retried until they answer.
     pub connect: Vec<String>,
     /// First key segment(s) of every key; robots of one fleet must share it.
     pub key_prefix: String,
     /// Largest message sent or accepted, in bytes (also zenoh's receive limit per message).
     pub max_message_bytes: usize,
-    /// Received messages waiting for `poll`, in bytes; further messages are dropped and counted.
+    /// Received messages waiting for `poll`, in bytes, per sending peer; further messages from that peer
+    /// are dropped and counted (`queue_full`).
     pub max_queued_bytes: usize,
     pub congestion: Congestion,
     /// Multicast scouting on the local network (off: only the explicit endpoints are used).
