@@ -95,8 +95,16 @@ fn json_strings(values: &[String]) -> String {
 }
 
 impl ZenohConfig {
-    /// Checks the values that zenoh would otherwise only refuse later or not at all.
+    /// Checks everything before opening: the parameters ([`Self::validate_params`]) and that the
+    /// certificate files `mutual_tls` needs are given and exist.
     pub fn validate(&self) -> Result<(), PluginError> {
+        self.validate_params()?;
+        self.validate_files()
+    }
+
+    /// Checks the values that zenoh would otherwise only refuse later or not at all (what a config check
+    /// can judge; whether the certificate files exist is checked when the transport opens).
+    pub fn validate_params(&self) -> Result<(), PluginError> {
         let bad = |message: String| Err(PluginError::failed("zenoh", message));
         if self.listen.is_empty() && self.connect.is_empty() {
             return bad(
@@ -116,11 +124,11 @@ impl ZenohConfig {
         if self.max_message_bytes == 0 || self.max_queued_bytes < self.max_message_bytes {
             return bad("max_message_bytes must be positive and at most max_queued_bytes".into());
         }
-        self.validate_security()
+        self.validate_endpoints()
     }
 
-    /// Endpoints match the security mode, and TLS has its three files.
-    fn validate_security(&self) -> Result<(), PluginError> {
+    /// Endpoints match the security mode.
+    fn validate_endpoints(&self) -> Result<(), PluginError> {
         let bad = |message: String| Err(PluginError::failed("zenoh", message));
         let scheme = match self.security {
             Security::MutualTls => "tls/",
@@ -140,6 +148,12 @@ impl ZenohConfig {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// With `mutual_tls`, the three certificate files are given and exist.
+    fn validate_files(&self) -> Result<(), PluginError> {
+        let bad = |message: String| Err(PluginError::failed("zenoh", message));
         if self.security == Security::MutualTls {
             let files = [
                 ("tls.ca_certificate", &self.tls.ca_certificate),
@@ -239,6 +253,7 @@ impl ZenohConfig {
 
 impl skid_core::PluginParams for ZenohConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
-        self.validate().map_err(skid_core::ParamError::from_plugin_error)
+        self.validate_params()
+            .map_err(skid_core::ParamError::from_plugin_error)
     }
 }
