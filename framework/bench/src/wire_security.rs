@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use skid_core::RobotId;
 use skid_core::slots::{Destination, Transport};
-use skid_transport_zenoh::{FleetFiles, Security, TlsFiles, ZenohConfig, ZenohTransport};
+use skid_transport_zenoh::{FleetFiles, Security, ZenohConfig, ZenohTransport};
 
 use crate::stats::Timing;
 
@@ -43,17 +43,13 @@ pub fn zenoh_config(
     prefix: &str,
 ) -> ZenohConfig {
     let endpoint = |port: &u16| format!("{}/127.0.0.1:{port}", scheme(security));
-    let files = &certs.robots[robot as usize];
     ZenohConfig {
         listen: listen.iter().map(endpoint).collect(),
         connect: connect.iter().map(endpoint).collect(),
         key_prefix: prefix.to_owned(),
         security,
-        tls: TlsFiles {
-            ca_certificate: certs.ca_certificate.clone(),
-            certificate: files.certificate.clone(),
-            private_key: files.private_key.clone(),
-        },
+        // A robot outside the fleet gets no files, which opening the transport reports by key.
+        tls: certs.tls_for(robot).unwrap_or_default(),
         ..ZenohConfig::default()
     }
 }

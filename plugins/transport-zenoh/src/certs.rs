@@ -13,6 +13,7 @@ use rcgen::{
 use skid_core::PluginError;
 
 use crate::access::common_name;
+use crate::config::TlsFiles;
 
 /// The files of one robot, as `[transport.zenoh.tls]` names them.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -28,6 +29,18 @@ pub struct FleetFiles {
     pub ca_certificate: PathBuf,
     pub ca_private_key: PathBuf,
     pub robots: Vec<RobotFiles>,
+}
+
+impl FleetFiles {
+    /// The `[transport.zenoh.tls]` files of robot `robot`, `None` when the fleet has no such robot.
+    pub fn tls_for(&self, robot: u32) -> Option<TlsFiles> {
+        let files = self.robots.iter().find(|files| files.robot == robot)?;
+        Some(TlsFiles {
+            ca_certificate: self.ca_certificate.clone(),
+            certificate: files.certificate.clone(),
+            private_key: files.private_key.clone(),
+        })
+    }
 }
 
 fn failed(what: &str, error: impl std::fmt::Display) -> PluginError {

@@ -30,16 +30,11 @@ fn endpoint(port: u16) -> String {
 
 /// Robot `robot`'s TLS configuration from `fleet`, listening on `listen` and connecting to `connect`.
 fn config(fleet: &FleetFiles, robot: u32, listen: u16, connect: &[u16], prefix: &str) -> ZenohConfig {
-    let files = &fleet.robots[robot as usize];
     ZenohConfig {
         listen: vec![endpoint(listen)],
         connect: connect.iter().map(|&p| endpoint(p)).collect(),
         key_prefix: prefix.into(),
-        tls: TlsFiles {
-            ca_certificate: fleet.ca_certificate.clone(),
-            certificate: files.certificate.clone(),
-            private_key: files.private_key.clone(),
-        },
+        tls: fleet.tls_for(robot).unwrap(),
         ..ZenohConfig::default()
     }
 }
