@@ -109,6 +109,12 @@ pub const PROFILES: &[BenchProfile] = &[
         binary: "skid-bench-scale",
     },
     BenchProfile {
+        name: "stages",
+        summary: "issue #18's stage speeds beside their peers in one run: SOLiD extraction on KITTI scans, GICP end to end vs small_gicp, LM on sphere2500 vs GTSAM",
+        package: "skid-bench",
+        binary: "skid-bench-stages",
+    },
+    BenchProfile {
         name: "zenoh-tls",
         summary: "the zenoh transport's mutual TLS against plain TCP: bytes on the wire of the default pipeline as three robot processes, one-way latency by message size",
         package: "skid-bench",

@@ -78,19 +78,24 @@ impl Binning {
     }
 
     /// Counts the points into REC and the azimuth × elevation matrix and derives the descriptor.
-    /// A non-finite point is an error; the caller has downsampled already.
+    /// A non-finite point is an error.
     pub fn parts(&self, points: &[Point]) -> PluginResult<SolidParts> {
+        if let Some(index) = points.iter().position(|p| !p.is_finite()) {
+            return Err(PluginError::InvalidInput(format!(
+                "point {index} of {} is not finite",
+                points.len()
+            )));
+        }
+        Ok(self.parts_of_finite(points.iter()))
+    }
+
+    /// As [`Binning::parts`] for points known to be finite (the voxel downsampling's kept points).
+    pub fn parts_of_finite<'a>(&self, points: impl Iterator<Item = &'a Point>) -> SolidParts {
         let (nr, na, ne) = (self.num_range, self.num_azimuth, self.num_elevation);
         let mut rec = vec![0u32; nr * ne];
         let mut aec = vec![0u32; na * ne];
         let (mut used, mut out_of_range, mut outside_fov) = (0usize, 0usize, 0usize);
-        for (index, p) in points.iter().enumerate() {
-            if !p.is_finite() {
-                return Err(PluginError::InvalidInput(format!(
-                    "point {index} of {} is not finite",
-                    points.len()
-                )));
-            }
+        for p in points {
             let range_sq = p.x * p.x + p.y * p.y;
             // A point on the z axis (r = 0) has no azimuth; it is out of range for any min_range > 0 and
             // dropped as out of range for min_range = 0 too.
@@ -125,7 +130,7 @@ impl Binning {
                 })
                 .collect()
         };
-        Ok(SolidParts {
+        SolidParts {
             r_solid: weigh(&rec, nr),
             a_solid: weigh(&aec, na),
             range_elevation_counts: rec,
@@ -134,7 +139,7 @@ impl Binning {
             points_used: used,
             points_out_of_range: out_of_range,
             points_outside_fov: outside_fov,
-        })
+        }
     }
 }
 

@@ -28,6 +28,8 @@ impl skid_core::PluginParams for SolidConfig {
 #[cfg(test)]
 mod tests;
 
+use std::sync::Mutex;
+
 use serde::{Deserialize, Serialize};
 use skid_core::slots::{Descriptor, DescriptorBuf, DescriptorIndex};
 use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult, Registry};
@@ -38,6 +40,7 @@ pub use keytree::{MAX_KEY_LEN, RebuildPolicy};
 pub use wire::Quantization;
 
 use extract::Binning;
+use voxel::VoxelOccupancy;
 
 /// The plugin's registry name and descriptor kind.
 pub const NAME: &str = "solid";
@@ -167,10 +170,12 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     registry.descriptor.register(entry)
 }
 
-/// The plugin state: a validated config and its precomputed binning.
+/// The plugin state: a validated config, its precomputed binning and the voxel occupancy grid reused
+/// between keyframes.
 pub struct SolidDescriptor {
     config: SolidConfig,
     binning: Binning,
+    occupancy: Mutex<VoxelOccupancy>,
 }
 
 impl SolidDescriptor {
@@ -178,6 +183,7 @@ impl SolidDescriptor {
         config.validate()?;
         Ok(Self {
             binning: Binning::new(&config),
+            occupancy: Mutex::new(occupancy_for(&config)),
             config,
         })
     }
@@ -189,18 +195,26 @@ impl SolidDescriptor {
     /// Every intermediate of the descriptor for a cloud (after voxel downsampling), before quantisation.
     pub fn parts(&self, cloud: CloudView<'_>) -> PluginResult<SolidParts> {
         let points = cloud.points();
-        if let Some(index) = points.iter().position(|p| !p.is_finite()) {
-            return Err(PluginError::InvalidInput(format!(
-                "point {index} of {} is not finite",
-                points.len()
-            )));
+        if self.config.voxel_size_m <= 0.0 {
+            return self.binning.parts(points);
         }
-        if self.config.voxel_size_m > 0.0 {
-            let kept = voxel::first_point_per_voxel(points, self.config.voxel_size_m as f32);
-            self.binning.parts(&kept)
-        } else {
-            self.binning.parts(points)
-        }
+        // The occupancy grid is reused from call to call; a call while another thread holds it (the
+        // descriptor shared between threads) makes its own.
+        let mut own;
+        let mut shared = self.occupancy.try_lock();
+        let occupancy = match shared.as_deref_mut() {
+            Ok(occupancy) => occupancy,
+            Err(_) => {
+                own = occupancy_for(&self.config);
+                &mut own
+            }
+        };
+        let kept = occupancy.first_per_voxel(points).map_err(|index| {
+            PluginError::InvalidInput(format!("point {index} of {} is not finite", points.len()))
+        })?;
+        Ok(self
+            .binning
+            .parts_of_finite(kept.iter().map(|&index| &points[index])))
     }
 
     /// Bytes one descriptor takes on the wire.
@@ -273,4 +287,16 @@ impl Descriptor for SolidDescriptor {
             policy,
         ))
     }
+}
+
+/// The voxel occupancy of a config: its grid spans the range limit and the heights the vertical field
+/// of view reaches within it.
+fn occupancy_for(config: &SolidConfig) -> VoxelOccupancy {
+    let reach = |deg: f64| config.max_range_m * deg.to_radians().tan();
+    VoxelOccupancy::new(
+        config.voxel_size_m as f32,
+        config.max_range_m as f32,
+        reach(config.lower_fov_deg).min(0.0) as f32,
+        reach(config.upper_fov_deg).max(0.0) as f32,
+    )
 }
