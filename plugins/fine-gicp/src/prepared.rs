@@ -7,7 +7,6 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::{Matrix3, Vector3};
-use rayon::prelude::*;
 use serde::Serialize;
 use skid_core::slots::PreparedCloud;
 use skid_core::{Cloud, CloudView, PluginError, PluginResult, Point};
@@ -91,14 +90,11 @@ fn elapsed_ms(start: Instant) -> f64 {
 pub(crate) fn prepare(config: &GicpConfig, cloud: CloudView<'_>) -> PluginResult<PreparedCloud> {
     cloud.ensure_usable("cloud to prepare", 0)?;
     let start = Instant::now();
-    let raw: Vec<Vector3<f64>> = cloud
+    let raw = cloud
         .points()
-        .par_iter()
-        .with_min_len(4096)
-        .map(|p| Vector3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)))
-        .collect();
-    let points = voxel::downsample(&raw, config.downsampling_m);
-    drop(raw);
+        .iter()
+        .map(|p| Vector3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)));
+    let points = voxel::downsample(raw, config.downsampling_m);
     if points.len() > u32::MAX as usize {
         return Err(PluginError::InvalidInput(format!(
             "{PLUGIN_NAME}: {} points is too many",
@@ -111,7 +107,7 @@ pub(crate) fn prepare(config: &GicpConfig, cloud: CloudView<'_>) -> PluginResult
 
     if let Some(coarse_m) = config.coarse_level_m() {
         let stage = Instant::now();
-        let coarse_points = voxel::downsample(&data.points, coarse_m);
+        let coarse_points = voxel::downsample(data.points.iter().copied(), coarse_m);
         data.coarse = Some(Box::new(prepare_level(config, coarse_points, false)));
         data.timings.coarse_ms = elapsed_ms(stage);
     }

@@ -9,7 +9,7 @@ use anyhow::Result;
 use serde::Deserialize;
 use skid_core::slots::FineRegistration;
 use skid_core::{CloudView, PluginContext, Pose};
-use skid_fine_gicp::{GicpConfig, GicpRegistration};
+use skid_fine_gicp::{GicpConfig, GicpRegistration, PrepareTimings};
 use skid_io::{CloudReadOptions, pcd};
 
 use crate::{Row, median, peer};
@@ -39,6 +39,7 @@ pub fn row(python: Option<&OsStr>, repeats: usize) -> Result<Row> {
     let mut registration = GicpRegistration::new(GicpConfig::default(), &context)?;
     let (mut skid_total, mut skid_prepare, mut skid_align) = (Vec::new(), Vec::new(), Vec::new());
     let (mut iterations, mut inliers) = (0, 0);
+    let mut source_stages = Vec::new();
     let mut peer_runs: Option<PeerRuns> = None;
     for round in 0..3 {
         for run in 0..=repeats {
@@ -55,6 +56,9 @@ pub fn row(python: Option<&OsStr>, repeats: usize) -> Result<Row> {
                 skid_align.push(total_ms - prepared_ms);
             }
             (iterations, inliers) = (report.alignment.iterations, report.alignment.inlier_count);
+            if let Some(timings) = skid_fine_gicp::prepared_data(&prepared_source).map(|d| d.timings()) {
+                source_stages.push(timings);
+            }
         }
         if let Some(python) = python {
             let paths = [target_bin.to_string_lossy(), source_bin.to_string_lossy()];
@@ -87,12 +91,25 @@ pub fn row(python: Option<&OsStr>, repeats: usize) -> Result<Row> {
         ratio: peer.map(|(ms, ..)| skid / ms),
         goal: "≤ 0.8×".into(),
         detail: format!(
-            "SKiD prepare {:.1} + align {:.1} ms, {iterations} linearisations, {inliers} inliers{}",
+            "SKiD prepare {:.1} (source cloud: {}) + align {:.1} ms, {iterations} linearisations, {inliers} inliers{}",
             median(&mut skid_prepare),
+            stage_medians(&source_stages),
             median(&mut skid_align),
             peer.map_or(String::new(), |(_, prepare, align, it, inl)| format!(
                 "; small_gicp preprocess {prepare:.1} + align {align:.1} ms, {it} iterations, {inl} inliers"
             ))
         ),
     })
+}
+
+/// The median of each preparation stage over the runs, as text.
+fn stage_medians(runs: &[PrepareTimings]) -> String {
+    let stage = |pick: fn(&PrepareTimings) -> f64| median(&mut runs.iter().map(pick).collect::<Vec<_>>());
+    format!(
+        "downsample {:.1}, tree {:.1}, covariances {:.1}, coarse level {:.1} ms",
+        stage(|t| t.downsample_ms),
+        stage(|t| t.tree_ms),
+        stage(|t| t.covariance_ms),
+        stage(|t| t.coarse_ms)
+    )
 }
