@@ -126,7 +126,7 @@ mod tests {
 
     #[test]
     fn downsampling_averages_each_voxel() {
-        let points = vec![
+        let points = [
             Vector3::new(0.1, 0.1, 0.1),
             Vector3::new(0.3, 0.3, 0.3),
             Vector3::new(1.5, 0.5, 0.5),
