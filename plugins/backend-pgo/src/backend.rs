@@ -268,7 +268,8 @@ impl Backend for PgoBackend {
         let mut subgraph = build(&self.poses, &self.chains, &loops, scope, robust)?;
         // Nothing the last converged solution does not account for: it is still the optimum (see
         // `crate::incremental`); only the peers' keyframes are placed again below.
-        let report = if self.memory.changed {
+        let solved = self.memory.changed;
+        let report = if solved {
             self.solve(&mut subgraph, budget, loops.len())?
         } else {
             OptimizeReport {
@@ -276,7 +277,14 @@ impl Backend for PgoBackend {
                 ..self.memory.last_report
             }
         };
-        write_back(&mut self.poses, &self.chains, &subgraph, scope);
+        write_back(
+            &mut self.poses,
+            &self.chains,
+            &subgraph,
+            scope,
+            solved,
+            &mut self.memory.placed_through,
+        );
         Ok(report)
     }
 

@@ -67,6 +67,21 @@ impl Chain {
         self.steps.keys().copied()
     }
 
+    /// Keyframe indices strictly between `low` and `high`, in order.
+    pub fn indices_between(&self, low: u32, high: u32) -> impl Iterator<Item = u32> + '_ {
+        use std::ops::Bound::Excluded;
+        let range = (low < high).then_some((Excluded(low), Excluded(high)));
+        range
+            .into_iter()
+            .flat_map(|bounds| self.steps.range(bounds).map(|(k, _)| *k))
+    }
+
+    /// Keyframe indices after `low`, in order.
+    pub fn indices_after(&self, low: u32) -> impl Iterator<Item = u32> + '_ {
+        use std::ops::Bound::{Excluded, Unbounded};
+        self.steps.range((Excluded(low), Unbounded)).map(|(k, _)| *k)
+    }
+
     /// Recomputes the prefixes from keyframe `index` on (appending is O(1)).
     fn rebuild_from(&mut self, index: u32) {
         let mut previous = self.prefix.range(..index).next_back().map(|(k, p)| (*k, *p));

@@ -15,6 +15,7 @@ use skid_core::{KeyframeId, Pose, RobotId};
 
 use crate::chain::Chains;
 use crate::error::PgoError;
+use crate::own_chain;
 use crate::problem::{Problem, RawEdge, Unanchored};
 use crate::se3::se3_adjoint;
 
@@ -99,13 +100,28 @@ pub fn build(
     scope: Scope,
     loop_is_robust: bool,
 ) -> Result<Subgraph, PgoError> {
-    // Which keyframes take part.
+    // Which keyframes take part: every one in a full solve; in a distributed one, the own keyframes
+    // that keep a variable (see `crate::own_chain`).
     let mut included: BTreeSet<KeyframeId> = BTreeSet::new();
-    for id in poses.keys() {
-        if matches!(scope, Scope::Full) || matches!(scope, Scope::Distributed { own } if id.robot == own) {
-            included.insert(*id);
+    let own_kept = match scope {
+        Scope::Full => {
+            included.extend(poses.keys().copied());
+            Vec::new()
         }
-    }
+        Scope::Distributed { own } => {
+            let kept = chains
+                .robots
+                .get(&own)
+                .map(|chain| own_chain::kept_keyframes(chain, own, loops))
+                .unwrap_or_default();
+            included.extend(
+                kept.iter()
+                    .map(|&index| KeyframeId { robot: own, index })
+                    .filter(|id| poses.contains_key(id)),
+            );
+            kept
+        }
+    };
     let mut touched: BTreeMap<RobotId, BTreeSet<u32>> = BTreeMap::new();
     for l in loops {
         for id in [l.target, l.source] {
@@ -126,8 +142,11 @@ pub fn build(
     let position: BTreeMap<KeyframeId, usize> =
         keyframes.iter().enumerate().map(|(k, id)| (*id, k)).collect();
     let mut edges = Vec::new();
-    // Odometry of the fully included robots.
+    // Odometry of the fully included robots (every robot in a full solve).
     for (robot, chain) in &chains.robots {
+        if matches!(scope, Scope::Distributed { .. }) {
+            break;
+        }
         for index in chain.indices() {
             let Some(step) = chain.step(index) else { continue };
             let (from, to) = (
@@ -162,36 +181,31 @@ pub fn build(
             }
         }
     }
-    // Peers: consecutive touched keyframes joined by their composed odometry.
-    for (robot, indices) in &touched {
-        let list: Vec<u32> = indices.iter().copied().collect();
+    // Peers, and the own robot in a distributed solve: consecutive included keyframes joined by their
+    // composed odometry.
+    let own_robot = match scope {
+        Scope::Distributed { own } => Some((own, own_kept)),
+        Scope::Full => None,
+    };
+    let composed = touched
+        .iter()
+        .map(|(robot, indices)| (*robot, indices.iter().copied().collect::<Vec<u32>>()))
+        .chain(own_robot);
+    for (robot, list) in composed {
         for pair in list.windows(2) {
-            let (from, to) = (
-                KeyframeId {
-                    robot: *robot,
-                    index: pair[0],
-                },
-                KeyframeId {
-                    robot: *robot,
-                    index: pair[1],
-                },
-            );
-            let Some(relative) = chains.between(from, to) else {
-                continue;
+            let from = KeyframeId {
+                robot,
+                index: pair[0],
             };
-            // Left covariance in the `from` frame to the right convention of the residual.
-            let ad = se3_adjoint(&relative.target_from_source.inverse());
-            let right = ad * relative.covariance * ad.transpose();
-            let Some(information) = ((right + right.transpose()) * 0.5).try_inverse() else {
-                continue;
+            let to = KeyframeId {
+                robot,
+                index: pair[1],
             };
-            edges.push(RawEdge {
-                i: position[&from],
-                j: position[&to],
-                measured: relative.target_from_source,
-                information: (information + information.transpose()) * 0.5,
-                robust: false,
-            });
+            if let (Some(&i), Some(&j)) = (position.get(&from), position.get(&to))
+                && let Some(edge) = composed_edge(chains, from, to, i, j)
+            {
+                edges.push(edge);
+            }
         }
     }
     let mut factor_loops = vec![None; edges.len()];
@@ -228,13 +242,41 @@ pub fn build(
     })
 }
 
-/// Writes an optimised subgraph back, and moves the peer keyframes between touched ones rigidly with the
-/// nearest optimised keyframe of their segment.
+/// The odometry of a robot composed from keyframe `from` to `to` (positions `i` and `j`) as one factor;
+/// `None` across a gap in the odometry or for a singular covariance.
+fn composed_edge(
+    chains: &Chains,
+    from: KeyframeId,
+    to: KeyframeId,
+    i: usize,
+    j: usize,
+) -> Option<RawEdge<Isometry3<f64>, 6>> {
+    let relative = chains.between(from, to)?;
+    // Left covariance in the `from` frame to the right convention of the residual.
+    let ad = se3_adjoint(&relative.target_from_source.inverse());
+    let right = ad * relative.covariance * ad.transpose();
+    let information = ((right + right.transpose()) * 0.5).try_inverse()?;
+    Some(RawEdge {
+        i,
+        j,
+        measured: relative.target_from_source,
+        information: (information + information.transpose()) * 0.5,
+        robust: false,
+    })
+}
+
+/// Writes an optimised subgraph back. In a distributed solve, when the subgraph was `solved`, the own
+/// keyframes left out of it are put back along the chain ([`own_chain::place_between`]); the peer
+/// keyframes between touched ones move rigidly with the nearest optimised keyframe of their segment, all
+/// of them after a solve and otherwise only those after `placed_through` (the last placed of each peer,
+/// which this updates): nothing else moved.
 pub fn write_back(
     poses: &mut BTreeMap<KeyframeId, Pose>,
     chains: &Chains,
     subgraph: &Subgraph,
     scope: Scope,
+    solved: bool,
+    placed_through: &mut BTreeMap<RobotId, u32>,
 ) {
     let mut optimised: BTreeMap<RobotId, Vec<u32>> = BTreeMap::new();
     for (id, pose) in subgraph.keyframes.iter().zip(&subgraph.problem.poses) {
@@ -243,23 +285,40 @@ pub fn write_back(
     }
     let Scope::Distributed { own } = scope else { return };
     for (robot, anchors) in optimised {
-        if robot == own {
-            continue;
-        }
         let Some(chain) = chains.robots.get(&robot) else {
             continue;
         };
-        for index in chain.indices() {
-            if anchors.binary_search(&index).is_ok() {
-                continue;
+        if robot == own {
+            if solved {
+                own_chain::place_between(poses, chain, own, &anchors);
             }
-            let id = KeyframeId { robot, index };
-            let nearest = anchors
-                .iter()
-                .filter(|a| chain.segment(**a).map(|s| s.0) == chain.segment(index).map(|s| s.0))
+            continue;
+        }
+        let first = match placed_through.get(&robot) {
+            Some(&last) if !solved => last,
+            _ => 0,
+        };
+        let indices: Vec<u32> = if first == 0 {
+            chain.indices().collect()
+        } else {
+            chain.indices_after(first).collect()
+        };
+        for index in indices {
+            placed_through.insert(robot, index);
+            let Err(above) = anchors.binary_search(&index) else {
+                continue;
+            };
+            // The anchors in index order: the nearest in the segment is the one just below or just above.
+            let segment = chain.segment(index).map(|s| s.0);
+            let nearest = [above.checked_sub(1), Some(above)]
+                .into_iter()
+                .flatten()
+                .filter_map(|k| anchors.get(k).copied())
+                .filter(|a| chain.segment(*a).map(|s| s.0) == segment)
                 .min_by_key(|a| a.abs_diff(index));
-            let Some(&anchor) = nearest else { continue };
+            let Some(anchor) = nearest else { continue };
             let anchor_id = KeyframeId { robot, index: anchor };
+            let id = KeyframeId { robot, index };
             if let (Some(relative), Some(anchor_pose)) =
                 (chains.between(anchor_id, id), poses.get(&anchor_id).copied())
             {

@@ -1,6 +1,10 @@
 //! What keeps the `pgo` back-end's cost per keyframe flat as a mission grows (issue #18): what the last
 //! optimisation left behind, so that the next one does only the work that is new.
 //!
+//! - **Variables for what loops touch.** The subgraph holds of the own robot only the keyframes loops
+//!   touch and the ends of its odometry segments, the chain between them composed into one factor
+//!   ([`crate::own_chain`]), as it holds of the peers; so a solve costs in proportion to the loops, not
+//!   to the keyframes of the mission.
 //! - **Nothing new, nothing solved.** A keyframe of the robot's own enters the graph as a leaf, placed by
 //!   its odometry from the optimised pose before it (the host's guess), where its one factor has zero
 //!   residual: the optimum of the grown graph is the old optimum plus the new leaves. Until a loop is
@@ -39,6 +43,8 @@ pub struct Memory {
     pub touched_up_to: BTreeMap<RobotId, u32>,
     /// The report of the last solve, returned again when nothing changed.
     pub last_report: OptimizeReport,
+    /// The last keyframe of each peer placed from the subgraph: without a solve only later ones move.
+    pub placed_through: BTreeMap<RobotId, u32>,
 }
 
 impl Default for Memory {
@@ -51,6 +57,7 @@ impl Default for Memory {
             removed_since_full_run: false,
             touched_up_to: BTreeMap::new(),
             last_report: OptimizeReport::default(),
+            placed_through: BTreeMap::new(),
         }
     }
 }

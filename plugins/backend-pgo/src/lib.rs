@@ -24,6 +24,7 @@ pub mod group;
 pub mod incremental;
 pub mod linear;
 pub mod lm;
+pub mod own_chain;
 pub mod problem;
 pub mod robust;
 pub mod se2;

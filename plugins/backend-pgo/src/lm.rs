@@ -293,8 +293,11 @@ pub fn optimize<G: PoseGroup<D>, const D: usize>(
             break;
         }
     }
-    if outcome.stop == StopReason::NoDecrease && outcome.iterations > 0 {
-        // No step improves on the current poses: a minimum to the solver's precision.
+    if outcome.stop == StopReason::NoDecrease
+        && (outcome.iterations > 0 || cost <= settings.absolute_cost_tolerance)
+    {
+        // No step improves on the current poses: a minimum to the solver's precision (also when the
+        // start already was one, a graph whose measurements all agree).
         outcome.stop = StopReason::Converged;
     }
     outcome.final_cost = cost;
