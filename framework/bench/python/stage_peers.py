@@ -8,7 +8,8 @@
 - `lm GRAPH.g2o REPEATS`: GTSAM's Levenberg-Marquardt (default parameters) on a 3-D g2o graph, from the
   file's initial estimate and from GTSAM's own chordal initialisation (`InitializePose3`, timed with it).
 - `gnc GRAPH.g2o REPEATS`: GTSAM's GNC with Levenberg-Marquardt (truncated least squares, default
-  schedule), odometry edges (consecutive ids) given as known inliers, from the file's initial estimate.
+  schedule), odometry edges (consecutive ids) given as known inliers, from the file's initial estimate;
+  a 2-D or 3-D graph. (`cargo xtask bench pgo` runs it on its graphs with wrong loops.)
   Prints the loop edges it rejected (weight below 0.5) as `outliers`, `[from, to]` pairs.
 
 Point files are KITTI .bin (float32 x, y, z, intensity). Each mode prints one JSON object: the wall-clock
@@ -71,10 +72,16 @@ def gicp(target_path, source_path, repeats):
 def read_graph(path):
     import gtsam
 
-    graph, initial = gtsam.readG2o(path, True)
+    with open(path) as file:
+        three_d = "VERTEX_SE3" in file.read()
+    graph, initial = gtsam.readG2o(path, three_d)
     first = min(initial.keys())
-    noise = gtsam.noiseModel.Diagonal.Sigmas(np.full(6, 1e-6))
-    graph.add(gtsam.PriorFactorPose3(first, initial.atPose3(first), noise))
+    if three_d:
+        noise = gtsam.noiseModel.Diagonal.Sigmas(np.full(6, 1e-6))
+        graph.add(gtsam.PriorFactorPose3(first, initial.atPose3(first), noise))
+    else:
+        noise = gtsam.noiseModel.Diagonal.Sigmas(np.full(3, 1e-6))
+        graph.add(gtsam.PriorFactorPose2(first, initial.atPose2(first), noise))
     return gtsam, graph, initial
 
 

@@ -3,7 +3,9 @@
 //! by PCM (`skid-verifier-pcm`, loops submitted in random order over the odometry chain), by GNC-TLS in
 //! the back-end (`skid_backend_pgo::gnc`), or by both in turn (`pcm+gnc`, the default profile); the
 //! surviving graph is optimised and compared with the clean graph's solution. A row is `ok` when no wrong
-//! loop is kept, no true loop is dropped and no pose is 1 cm or more from the clean solution.
+//! loop is kept, no true loop is dropped and no pose is 1 cm or more from the clean solution. With
+//! `SKID_PYTHON` set (`cargo xtask bench` sets it), GTSAM's GNC runs on the same corrupted graphs beside
+//! SKiD's (`python/stage_peers.py gnc`; 20 wrong loops unless `SKID_BENCH_PGO_PEER_MAX_WRONG` says more).
 
 use std::collections::BTreeSet;
 use std::time::Instant;
@@ -342,7 +344,83 @@ fn case(report: &mut Report, data: &std::path::Path, file: &str, count: usize, w
         .copied()
         .filter(|&k| gnc_report.edge_inliers[k])
         .collect();
-    push("gnc", &accepted, &solution, 0.0, gnc_report.time_s)
+    push("gnc", &accepted, &solution, 0.0, gnc_report.time_s)?;
+    if let Some(python) = std::env::var_os("SKID_PYTHON").filter(|_| count <= peer_max_wrong_loops()) {
+        let peer = gtsam_gnc(&python, &corrupted)?;
+        let accepted = accepted_by_peer(&corrupted, &loops, &peer.outliers);
+        // GTSAM's solution is not read back; its pose difference is not measured.
+        let wrong_accepted = accepted.intersection(&wrong).count();
+        let true_rejected = loops
+            .iter()
+            .filter(|k| !wrong.contains(k) && !accepted.contains(k))
+            .count();
+        let mut times = peer.ms;
+        times.sort_by(f64::total_cmp);
+        report.push(&Row {
+            graph: file.to_owned(),
+            wrong_loops: count,
+            method: "GTSAM GNC (peer)".into(),
+            true_loops,
+            wrong_accepted,
+            true_rejected,
+            max_pose_difference_m: "–".into(),
+            verify_s: "0.00".into(),
+            optimise_s: format!("{:.2}", times[times.len() / 2] / 1e3),
+            ok: wrong_accepted == 0 && true_rejected == 0,
+        })?;
+    }
+    Ok(())
+}
+
+/// The most wrong loops a graph may have for GTSAM's GNC to run on it beside SKiD's
+/// (`SKID_BENCH_PGO_PEER_MAX_WRONG`, default 20: GTSAM takes minutes on parking-garage).
+fn peer_max_wrong_loops() -> usize {
+    std::env::var("SKID_BENCH_PGO_PEER_MAX_WRONG")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20)
+}
+
+/// What GTSAM's GNC answered.
+#[derive(serde::Deserialize)]
+struct PeerGnc {
+    ms: Vec<f64>,
+    outliers: Vec<[u64; 2]>,
+}
+
+/// Runs GTSAM's GNC (`python/stage_peers.py gnc`) once on `graph`, written to a temporary g2o file.
+fn gtsam_gnc(python: &std::ffi::OsStr, graph: &AnyPoseGraph) -> Result<PeerGnc> {
+    let folder = tempfile::tempdir()?;
+    let path = folder.path().join("corrupted.g2o");
+    skid_io::g2o::write_g2o(&path, graph)?;
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("python/stage_peers.py");
+    let output = std::process::Command::new(python)
+        .arg(&script)
+        .args(["gnc".as_ref(), path.as_os_str(), "1".as_ref()])
+        .output()
+        .with_context(|| format!("running {}", script.display()))?;
+    if !output.status.success() {
+        anyhow::bail!(
+            "stage_peers.py gnc failed ({}): {}",
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    serde_json::from_slice(&output.stdout).context("reading what stage_peers.py gnc printed")
+}
+
+/// The loop edges GTSAM kept: every loop whose (from, to) pair it did not name an outlier.
+fn accepted_by_peer(graph: &AnyPoseGraph, loops: &[usize], outliers: &[[u64; 2]]) -> BTreeSet<usize> {
+    let ends = |k: usize| match graph {
+        AnyPoseGraph::ThreeD(g) => (g.edges[k].from, g.edges[k].to),
+        AnyPoseGraph::TwoD(g) => (g.edges[k].from, g.edges[k].to),
+    };
+    let rejected: BTreeSet<(u64, u64)> = outliers.iter().map(|&[a, b]| (a, b)).collect();
+    loops
+        .iter()
+        .copied()
+        .filter(|&k| !rejected.contains(&ends(k)))
+        .collect()
 }
 
 /// The robustness table.
