@@ -21,6 +21,7 @@ pub mod report;
 pub mod scale;
 pub mod scale_report;
 pub mod slam;
+pub mod stage_peers;
 pub mod stats;
 pub mod usage;
 pub mod wire_security;

@@ -393,20 +393,7 @@ fn gtsam_gnc(python: &std::ffi::OsStr, graph: &AnyPoseGraph) -> Result<PeerGnc> 
     let folder = tempfile::tempdir()?;
     let path = folder.path().join("corrupted.g2o");
     skid_io::g2o::write_g2o(&path, graph)?;
-    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("python/stage_peers.py");
-    let output = std::process::Command::new(python)
-        .arg(&script)
-        .args(["gnc".as_ref(), path.as_os_str(), "1".as_ref()])
-        .output()
-        .with_context(|| format!("running {}", script.display()))?;
-    if !output.status.success() {
-        anyhow::bail!(
-            "stage_peers.py gnc failed ({}): {}",
-            output.status,
-            String::from_utf8_lossy(&output.stderr)
-        );
-    }
-    serde_json::from_slice(&output.stdout).context("reading what stage_peers.py gnc printed")
+    skid_bench::stage_peers::run(python, "gnc", &[path.as_os_str(), "1".as_ref()])
 }
 
 /// The loop edges GTSAM kept: every loop whose (from, to) pair it did not name an outlier.

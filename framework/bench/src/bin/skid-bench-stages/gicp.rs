@@ -3,7 +3,7 @@
 //! the coarse-to-fine stage) against small_gicp's `align` with its settings for this pair. The issue's
 //! goal is at most 0.8× small_gicp's time.
 
-use std::ffi::OsStr;
+use std::ffi::{OsStr, OsString};
 
 use anyhow::Result;
 use serde::Deserialize;
@@ -12,7 +12,9 @@ use skid_core::{CloudView, PluginContext, Pose};
 use skid_fine_gicp::{GicpConfig, GicpRegistration, PrepareTimings};
 use skid_io::{CloudReadOptions, pcd};
 
-use crate::{Row, median, peer};
+use skid_bench::stage_peers;
+
+use crate::{Row, median};
 
 #[derive(Deserialize)]
 struct PeerRuns {
@@ -61,8 +63,9 @@ pub fn row(python: Option<&OsStr>, repeats: usize) -> Result<Row> {
             }
         }
         if let Some(python) = python {
-            let paths = [target_bin.to_string_lossy(), source_bin.to_string_lossy()];
-            let runs: PeerRuns = peer::run(python, "gicp", &[&paths[0], &paths[1], &repeats.to_string()])?;
+            let repeats = OsString::from(repeats.to_string());
+            let args = [target_bin.as_os_str(), source_bin.as_os_str(), &repeats];
+            let runs: PeerRuns = stage_peers::run(python, "gicp", &args)?;
             match &mut peer_runs {
                 Some(all) => {
                     all.end_to_end_ms.extend(runs.end_to_end_ms);

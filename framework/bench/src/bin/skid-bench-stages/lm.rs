@@ -3,7 +3,7 @@
 //! initial estimate and from each one's own chordal initialisation (timed with it). The goal is
 //! at most half GTSAM's time.
 
-use std::ffi::OsStr;
+use std::ffi::{OsStr, OsString};
 
 use anyhow::{Context, Result};
 use nalgebra::Isometry3;
@@ -11,7 +11,9 @@ use serde::Deserialize;
 use skid_backend_pgo::{Initialization, PgoOptions, optimize_pose_graph};
 use skid_io::g2o::{G2oReadOptions, read_g2o_3d};
 
-use crate::{Row, median, peer};
+use skid_bench::stage_peers;
+
+use crate::{Row, median};
 
 #[derive(Deserialize)]
 struct PeerRun {
@@ -30,7 +32,7 @@ struct PeerRuns {
 pub fn rows(python: Option<&OsStr>, repeats: usize) -> Result<Vec<Row>> {
     let path = skid_io::data_path("pose_graph_benchmarks/se_sync/sphere2500.g2o")?;
     let (graph, _) = read_g2o_3d(&path, &G2oReadOptions::default())?;
-    let path_text = path.to_string_lossy().into_owned();
+    let repeats_text = OsString::from(repeats.to_string());
     let mut peer_runs: Option<PeerRuns> = None;
     let mut skid_ms: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let mut skid_outcome = [(0usize, 0.0f64); 2];
@@ -53,7 +55,7 @@ pub fn rows(python: Option<&OsStr>, repeats: usize) -> Result<Vec<Row>> {
             }
         }
         if let Some(python) = python {
-            let runs: PeerRuns = peer::run(python, "lm", &[&path_text, &repeats.to_string()])?;
+            let runs: PeerRuns = stage_peers::run(python, "lm", &[path.as_os_str(), &repeats_text])?;
             match &mut peer_runs {
                 Some(all) => {
                     all.file.ms.extend(runs.file.ms);
