@@ -61,7 +61,7 @@ fn floor_to_i64(v: f32) -> i64 {
 }
 
 /// Points whose grid cells are computed together, in a loop without branches the compiler vectorises.
-const BLOCK: usize = 64;
+const BLOCK: usize = 256;
 
 /// The cell of a point outside the grid.
 const OUTSIDE: u32 = u32::MAX;
