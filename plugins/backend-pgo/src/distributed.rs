@@ -142,11 +142,9 @@ pub fn build(
     let position: BTreeMap<KeyframeId, usize> =
         keyframes.iter().enumerate().map(|(k, id)| (*id, k)).collect();
     let mut edges = Vec::new();
-    // Odometry of the fully included robots (every robot in a full solve).
-    for (robot, chain) in &chains.robots {
-        if matches!(scope, Scope::Distributed { .. }) {
-            break;
-        }
+    // Every odometry step of every robot in a full solve (a distributed one composes them below).
+    let fully_included = chains.robots.iter().filter(|_| scope == Scope::Full);
+    for (robot, chain) in fully_included {
         for index in chain.indices() {
             let Some(step) = chain.step(index) else { continue };
             let (from, to) = (
@@ -156,9 +154,6 @@ pub fn build(
                 },
                 KeyframeId { robot: *robot, index },
             );
-            if touched.contains_key(robot) {
-                continue;
-            }
             if let (Some(&i), Some(&j)) = (position.get(&from), position.get(&to)) {
                 let information = step
                     .covariance
@@ -294,17 +289,14 @@ pub fn write_back(
             }
             continue;
         }
-        let first = match placed_through.get(&robot) {
-            Some(&last) if !solved => last,
-            _ => 0,
+        let indices: Vec<u32> = match placed_through.get(&robot) {
+            Some(&last) if !solved => chain.indices_after(last).collect(),
+            _ => chain.indices().collect(),
         };
-        let indices: Vec<u32> = if first == 0 {
-            chain.indices().collect()
-        } else {
-            chain.indices_after(first).collect()
-        };
+        if let Some(&last) = indices.last() {
+            placed_through.insert(robot, last);
+        }
         for index in indices {
-            placed_through.insert(robot, index);
             let Err(above) = anchors.binary_search(&index) else {
                 continue;
             };
