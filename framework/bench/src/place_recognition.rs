@@ -24,7 +24,7 @@ use skid_eval::{PrCurve, ScoredCandidate, pr_curve};
 use skid_sim::{SimConfig, SimSource};
 
 use crate::Timing;
-use crate::stats::time_ms;
+use crate::stats::{median, time_ms};
 
 /// One simulated world and sensor.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -237,15 +237,6 @@ fn yaw_of(pose: &Pose) -> f64 {
 fn angle_difference_deg(a_rad: f64, b_rad: f64) -> f64 {
     let d = (a_rad - b_rad).to_degrees().rem_euclid(360.0);
     d.min(360.0 - d)
-}
-
-/// Median of `values` (NaN when empty).
-pub fn median(values: &mut [f64]) -> f64 {
-    if values.is_empty() {
-        return f64::NAN;
-    }
-    values.sort_by(f64::total_cmp);
-    values[values.len() / 2]
 }
 
 /// What one case produced besides its rows: each variant's curve and descriptors.

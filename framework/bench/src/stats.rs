@@ -33,6 +33,15 @@ impl Timing {
     }
 }
 
+/// Median of `values` (the upper one of an even count; NaN when empty).
+pub fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
 /// Runs `work` and returns its result and the elapsed milliseconds.
 pub fn time_ms<T>(work: impl FnOnce() -> T) -> (T, f64) {
     let started = std::time::Instant::now();

@@ -355,7 +355,6 @@ fn case(report: &mut Report, data: &std::path::Path, file: &str, count: usize, w
             .filter(|k| !wrong.contains(k) && !accepted.contains(k))
             .count();
         let mut times = peer.ms;
-        times.sort_by(f64::total_cmp);
         report.push(&Row {
             graph: file.to_owned(),
             wrong_loops: count,
@@ -365,7 +364,7 @@ fn case(report: &mut Report, data: &std::path::Path, file: &str, count: usize, w
             true_rejected,
             max_pose_difference_m: "–".into(),
             verify_s: "0.00".into(),
-            optimise_s: format!("{:.2}", times[times.len() / 2] / 1e3),
+            optimise_s: format!("{:.2}", skid_bench::stats::median(&mut times) / 1e3),
             ok: wrong_accepted == 0 && true_rejected == 0,
         })?;
     }

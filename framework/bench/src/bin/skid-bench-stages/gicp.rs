@@ -14,7 +14,9 @@ use skid_io::{CloudReadOptions, pcd};
 
 use skid_bench::stage_peers;
 
-use crate::{Row, median};
+use skid_bench::stats::median;
+
+use crate::Row;
 
 #[derive(Deserialize)]
 struct PeerRuns {

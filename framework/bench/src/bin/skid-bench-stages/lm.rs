@@ -13,7 +13,9 @@ use skid_io::g2o::{G2oReadOptions, read_g2o_3d};
 
 use skid_bench::stage_peers;
 
-use crate::{Row, median};
+use skid_bench::stats::median;
+
+use crate::Row;
 
 #[derive(Deserialize)]
 struct PeerRun {

@@ -37,15 +37,6 @@ pub struct Row {
     detail: String,
 }
 
-/// The median of `values` (0 when empty).
-pub fn median(values: &mut [f64]) -> f64 {
-    if values.is_empty() {
-        return 0.0;
-    }
-    values.sort_by(f64::total_cmp);
-    values[values.len() / 2]
-}
-
 fn main() -> Result<()> {
     let args = Args::parse();
     let wanted = std::env::var("SKID_BENCH_STAGES").unwrap_or_else(|_| "solid,gicp,lm".into());

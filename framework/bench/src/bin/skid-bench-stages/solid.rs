@@ -3,7 +3,7 @@
 //! packaged peer to run beside it.
 
 use anyhow::{Context, Result};
-use skid_bench::stats::time_ms;
+use skid_bench::stats::{median, time_ms};
 use skid_core::CloudView;
 use skid_core::slots::Descriptor;
 use skid_descriptor_solid::{SolidConfig, SolidDescriptor};
@@ -31,7 +31,7 @@ pub fn row(repeats: usize) -> Result<Row> {
                 described.map(|_| ms)
             })
             .collect::<Result<_, _>>()?;
-        per_scan_ms.push(crate::median(&mut runs));
+        per_scan_ms.push(median(&mut runs));
         points.push(cloud.len());
     }
     let (fewest, most) = (points.iter().min().copied(), points.iter().max().copied());
@@ -43,7 +43,7 @@ pub fn row(repeats: usize) -> Result<Row> {
             fewest.unwrap_or(0),
             most.unwrap_or(0)
         ),
-        skid: format!("{:.3} ms", crate::median(&mut per_scan_ms)),
+        skid: format!("{:.3} ms", median(&mut per_scan_ms)),
         peer: "– (no packaged peer)".into(),
         ratio: None,
         goal: "≤ 1 ms".into(),
