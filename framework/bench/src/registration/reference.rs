@@ -3,13 +3,13 @@
 //! temporary folder and `python/kiss_matcher_pairs.py` runs under `$SKID_PYTHON` (`cargo xtask bench`
 //! sets it to the benchmark venv, which has the package).
 
-use std::path::Path;
-use std::process::Command;
-
 use anyhow::{Context, Result, bail};
 use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion};
 use serde::Deserialize;
 use skid_core::{Cloud, Pose};
+use skid_io::kitti::write_kitti_bin;
+
+use crate::python_peers::script_stdout;
 
 /// The method name of the reference in tables.
 pub const REFERENCE_NAME: &str = "KISS-Matcher (reference)";
@@ -30,18 +30,6 @@ struct Record {
     final_inliers: usize,
     valid: bool,
     ms: f64,
-}
-
-/// Writes `cloud` as a KITTI `.bin` (float32 x, y, z, intensity per point), which `skid register` and
-/// the reference's own examples read.
-fn write_kitti_bin(path: &Path, cloud: &Cloud) -> Result<()> {
-    let mut bytes = Vec::with_capacity(cloud.len() * 16);
-    for point in cloud.view().points() {
-        for value in [point.x, point.y, point.z, point.intensity] {
-            bytes.extend_from_slice(&value.to_le_bytes());
-        }
-    }
-    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
 }
 
 fn pose_from_row_major(values: &[f64]) -> Result<Pose> {
@@ -74,25 +62,23 @@ pub fn reference_kiss_matcher(
     let folder = kept.as_deref().unwrap_or(temporary.path());
     std::fs::create_dir_all(folder).with_context(|| format!("creating {}", folder.display()))?;
     for (index, (target, source)) in pairs.iter().enumerate() {
-        write_kitti_bin(&folder.join(format!("{index:04}_target.bin")), target)?;
-        write_kitti_bin(&folder.join(format!("{index:04}_source.bin")), source)?;
+        write_kitti_bin(
+            folder.join(format!("{index:04}_target.bin")),
+            target.view().points(),
+        )?;
+        write_kitti_bin(
+            folder.join(format!("{index:04}_source.bin")),
+            source.view().points(),
+        )?;
     }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/kiss_matcher_pairs.py");
-    let output = Command::new(python)
-        .arg(&script)
-        .arg(folder)
-        .arg(voxel_m.to_string())
-        .output()
-        .with_context(|| format!("running {}", script.display()))?;
-    if !output.status.success() {
-        bail!(
-            "kiss_matcher_pairs.py failed ({}): {}",
-            output.status,
-            String::from_utf8_lossy(&output.stderr)
-        );
-    }
+    let voxel = voxel_m.to_string();
+    let stdout = script_stdout(
+        &python,
+        "kiss_matcher_pairs.py",
+        &[folder.as_os_str(), voxel.as_ref()],
+    )?;
     let mut outcomes: Vec<Option<ReferenceOutcome>> = vec![None; pairs.len()];
-    for line in String::from_utf8_lossy(&output.stdout)
+    for line in String::from_utf8_lossy(&stdout)
         .lines()
         .filter(|l| !l.trim().is_empty())
     {

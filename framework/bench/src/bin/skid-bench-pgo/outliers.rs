@@ -392,7 +392,7 @@ fn gtsam_gnc(python: &std::ffi::OsStr, graph: &AnyPoseGraph) -> Result<PeerGnc> 
     let folder = tempfile::tempdir()?;
     let path = folder.path().join("corrupted.g2o");
     skid_io::g2o::write_g2o(&path, graph)?;
-    skid_bench::stage_peers::run(python, "gnc", &[path.as_os_str(), "1".as_ref()])
+    skid_bench::python_peers::run(python, "gnc", &[path.as_os_str(), "1".as_ref()])
 }
 
 /// The loop edges GTSAM kept: every loop whose (from, to) pair it did not name an outlier.

@@ -12,7 +12,7 @@ use skid_core::{CloudView, PluginContext, Pose};
 use skid_fine_gicp::{GicpConfig, GicpRegistration, PrepareTimings};
 use skid_io::{CloudReadOptions, pcd};
 
-use skid_bench::stage_peers;
+use skid_bench::python_peers;
 
 use skid_bench::stats::median;
 
@@ -67,7 +67,7 @@ pub fn row(python: Option<&OsStr>, repeats: usize) -> Result<Row> {
         if let Some(python) = python {
             let repeats = OsString::from(repeats.to_string());
             let args = [target_bin.as_os_str(), source_bin.as_os_str(), &repeats];
-            let runs: PeerRuns = stage_peers::run(python, "gicp", &args)?;
+            let runs: PeerRuns = python_peers::run(python, "gicp", &args)?;
             match &mut peer_runs {
                 Some(all) => {
                     all.end_to_end_ms.extend(runs.end_to_end_ms);

@@ -11,7 +11,7 @@ use serde::Deserialize;
 use skid_backend_pgo::{Initialization, PgoOptions, optimize_pose_graph};
 use skid_io::g2o::{G2oReadOptions, read_g2o_3d};
 
-use skid_bench::stage_peers;
+use skid_bench::python_peers;
 
 use skid_bench::stats::median;
 
@@ -57,7 +57,7 @@ pub fn rows(python: Option<&OsStr>, repeats: usize) -> Result<Vec<Row>> {
             }
         }
         if let Some(python) = python {
-            let runs: PeerRuns = stage_peers::run(python, "lm", &[path.as_os_str(), &repeats_text])?;
+            let runs: PeerRuns = python_peers::run(python, "lm", &[path.as_os_str(), &repeats_text])?;
             match &mut peer_runs {
                 Some(all) => {
                     all.file.ms.extend(runs.file.ms);

@@ -1,6 +1,6 @@
 //! `cargo xtask bench stages`: the stage speeds of issue #18's table, each measured beside its peer in
 //! the same run (the Python packages `small-gicp` and `gtsam` of the benchmark venv, through
-//! `skid_bench::stage_peers`), with rounds of SKiD and the peer alternated so both meet the shared machine
+//! `skid_bench::python_peers`), with rounds of SKiD and the peer alternated so both meet the shared machine
 //! in the same states: SOLiD extraction on real KITTI scans ([`solid`]), GICP end to end on the real
 //! HDL-32E pair ([`gicp`]) and Levenberg-Marquardt on sphere2500 ([`lm`]). The KISS-Matcher yaw sweep,
 //! robust PGO with wrong loops and the default run have their own profiles (`registration-coarse`,
@@ -41,7 +41,7 @@ fn main() -> Result<()> {
     let args = Args::parse();
     let wanted = std::env::var("SKID_BENCH_STAGES").unwrap_or_else(|_| "solid,gicp,lm".into());
     let wants = |name: &str| wanted.split(',').any(|w| w.trim() == name);
-    let python = skid_bench::stage_peers::python();
+    let python = skid_bench::python_peers::python();
     let repeats = args.repeats.max(1);
     let mut report = Report::new("stages");
     if wants("solid") {
