@@ -228,7 +228,7 @@ impl Backend for PgoBackend {
                 self.memory.loop_touches_peer(end.robot, end.index);
             }
         }
-        self.memory.changed = true;
+        self.memory.loop_changed();
         self.loops.insert(
             closure.id,
             LoopClosure {
@@ -243,8 +243,7 @@ impl Backend for PgoBackend {
         self.loops
             .remove(&id)
             .ok_or_else(|| invalid(format!("{id} is not in the graph")))?;
-        self.memory.changed = true;
-        self.memory.removed_since_full_run = true;
+        self.memory.loop_changed();
         Ok(())
     }
 
@@ -319,15 +318,14 @@ impl PgoBackend {
                 ..GncSettings::default()
             };
             let outcome = match self.memory.threshold_squared {
-                Some(threshold) if self.memory.warm_start_allowed(loop_count) => {
+                Some(threshold) if self.memory.warm_start_allowed() => {
                     let earlier = self.memory.earlier_labels(&subgraph.factor_loops);
                     gnc_tls_warm(&mut subgraph.problem, &gnc, threshold, &earlier, &mut self.cache)?
                 }
                 _ => {
                     let outcome = gnc_tls(&mut subgraph.problem, &gnc, &mut self.cache)?;
-                    self.memory.threshold_squared = Some(strict_threshold(&outcome, nominal));
-                    self.memory.loops_at_full_run = loop_count;
-                    self.memory.removed_since_full_run = false;
+                    self.memory
+                        .full_run(loop_count, strict_threshold(&outcome, nominal));
                     outcome
                 }
             };

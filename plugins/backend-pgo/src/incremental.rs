@@ -11,10 +11,12 @@
 //!   added or removed, or peer odometry changes inside a stretch the subgraph composes, the next
 //!   optimisation only re-places the peers' keyframes (after a solve that converged).
 //! - **Warm GNC.** New loops graduate from the last solution while the earlier loops keep their labels,
-//!   then every loop is re-labelled at the nominal threshold ([`crate::gnc::gnc_tls_warm`]). A full GNC
-//!   run (from the odometry, with the variance factor re-estimated) happens when a loop was removed,
-//!   and whenever the number of loops has doubled since the last full run, so its cost, which grows
-//!   with the graph, is amortised to a constant per loop.
+//!   then every loop is re-labelled at the nominal threshold ([`crate::gnc::gnc_tls_warm`]); a loop
+//!   the verifier retracted simply leaves the warm solve. A full GNC run (from the odometry, with the
+//!   variance factor re-estimated) happens once the loops added and removed since the last full run
+//!   number as many as the loops that run had, so its cost, which grows with the graph, is amortised
+//!   to a constant per loop change however the verifier's verdicts come (additions only, or a set that
+//!   turns over at a constant size).
 
 use std::collections::BTreeMap;
 
@@ -36,8 +38,8 @@ pub struct Memory {
     pub threshold_squared: Option<f64>,
     /// The number of loops at the last full GNC run.
     pub loops_at_full_run: usize,
-    /// A loop was removed since the last full GNC run.
-    pub removed_since_full_run: bool,
+    /// Loops added or removed since the last full GNC run.
+    pub loop_changes_since_full_run: usize,
     /// The highest keyframe index of each peer that a loop touches: peer odometry up to there is
     /// composed into the subgraph.
     pub touched_up_to: BTreeMap<RobotId, u32>,
@@ -54,7 +56,7 @@ impl Default for Memory {
             labels: BTreeMap::new(),
             threshold_squared: None,
             loops_at_full_run: 0,
-            removed_since_full_run: false,
+            loop_changes_since_full_run: 0,
             touched_up_to: BTreeMap::new(),
             last_report: OptimizeReport::default(),
             placed_through: BTreeMap::new(),
@@ -63,12 +65,24 @@ impl Default for Memory {
 }
 
 impl Memory {
-    /// Whether GNC may start warm with `loops` loops in the graph.
-    pub fn warm_start_allowed(&self, loops: usize) -> bool {
+    /// Whether GNC may start warm from the last solution.
+    pub fn warm_start_allowed(&self) -> bool {
         self.threshold_squared.is_some()
-            && !self.removed_since_full_run
             && self.loops_at_full_run >= MIN_LOOPS_FOR_WARM_START
-            && loops < 2 * self.loops_at_full_run
+            && self.loop_changes_since_full_run < self.loops_at_full_run
+    }
+
+    /// Records that a loop joined or left the graph.
+    pub fn loop_changed(&mut self) {
+        self.changed = true;
+        self.loop_changes_since_full_run += 1;
+    }
+
+    /// Records a full GNC run over `loops` loops that graduated at `threshold_squared`.
+    pub fn full_run(&mut self, loops: usize, threshold_squared: f64) {
+        self.threshold_squared = Some(threshold_squared);
+        self.loops_at_full_run = loops;
+        self.loop_changes_since_full_run = 0;
     }
 
     /// The earlier label of each factor's loop (`None` for odometry and for loops new since).
@@ -107,15 +121,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn warm_starts_until_the_loops_double_or_one_is_removed() {
+    fn warm_starts_until_the_loops_changed_as_many_times_as_the_full_run_had_loops() {
         let mut memory = Memory::default();
-        assert!(!memory.warm_start_allowed(10), "no full run yet");
-        memory.threshold_squared = Some(16.8);
-        memory.loops_at_full_run = 10;
-        assert!(memory.warm_start_allowed(19));
-        assert!(!memory.warm_start_allowed(20));
-        memory.removed_since_full_run = true;
-        assert!(!memory.warm_start_allowed(11));
+        assert!(!memory.warm_start_allowed(), "no full run yet");
+        memory.full_run(10, 16.8);
+        for _ in 0..9 {
+            memory.loop_changed();
+        }
+        assert!(memory.warm_start_allowed(), "9 changes after a run over 10 loops");
+        memory.loop_changed();
+        assert!(
+            !memory.warm_start_allowed(),
+            "10 changes: additions and removals both count"
+        );
+        memory.full_run(12, 16.8);
+        assert!(memory.warm_start_allowed());
+        memory.full_run(MIN_LOOPS_FOR_WARM_START - 1, 16.8);
+        assert!(!memory.warm_start_allowed(), "too few loops for a consensus");
     }
 
     #[test]
