@@ -86,6 +86,10 @@ pub struct Sample {
     pub keyframes: usize,
     pub backend_ms: f64,
     pub verifier_ms: f64,
+    /// Loop candidates the verifier has judged (every loop this robot registered).
+    pub verified: usize,
+    /// Loops the back-end's graph has gained or lost: the loops in it, plus twice those removed.
+    pub loop_changes: usize,
 }
 
 /// Records a [`Sample`] after every scan of the robot it watches.
@@ -107,6 +111,8 @@ impl HostObserver for Timeline {
             keyframes: host.keyframes.len(),
             backend_ms: stage("backend"),
             verifier_ms: stage("verifier"),
+            verified: host.loop_standing.len(),
+            loop_changes: host.loops.len() + 2 * host.stats.retracted,
         };
         self.samples
             .lock()
@@ -166,12 +172,42 @@ pub fn run_fleet(name: &str, sets: Vec<String>, registry: &Registry, out: &Path)
     })
 }
 
-/// Back-end and verifier milliseconds per new keyframe over robot time `[from_s, to_s)`, summed over
-/// every robot (each robot's clocks and keyframes between its last sample before `from_s` and its last
-/// before `to_s`); `None` when no keyframe was made then.
-pub fn cost_per_keyframe(samples: &[Sample], from_s: f64, to_s: f64) -> Option<(f64, f64)> {
+/// The work and the back-end and verifier time of every robot over a window of robot time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Window {
+    pub keyframes: usize,
+    pub backend_ms: f64,
+    pub verifier_ms: f64,
+    pub verified: usize,
+    pub loop_changes: usize,
+}
+
+impl Window {
+    pub fn backend_ms_per_keyframe(&self) -> f64 {
+        self.backend_ms / self.keyframes as f64
+    }
+
+    pub fn verifier_ms_per_keyframe(&self) -> f64 {
+        self.verifier_ms / self.keyframes as f64
+    }
+
+    /// Verifier milliseconds per candidate it judged; `None` when it judged none.
+    pub fn verifier_ms_per_candidate(&self) -> Option<f64> {
+        (self.verified > 0).then(|| self.verifier_ms / self.verified as f64)
+    }
+
+    /// Back-end milliseconds per loop its graph gained or lost; `None` when none did.
+    pub fn backend_ms_per_loop_change(&self) -> Option<f64> {
+        (self.loop_changes > 0).then(|| self.backend_ms / self.loop_changes as f64)
+    }
+}
+
+/// The window of robot time `[from_s, to_s)`, summed over every robot (each robot's clocks and counts
+/// between its last sample before `from_s` and its last before `to_s`); `None` when no keyframe was made
+/// then.
+pub fn window(samples: &[Sample], from_s: f64, to_s: f64) -> Option<Window> {
     let robots: std::collections::BTreeSet<u32> = samples.iter().map(|s| s.robot).collect();
-    let (mut keyframes, mut backend_ms, mut verifier_ms) = (0_usize, 0.0, 0.0);
+    let mut total = Window::default();
     for robot in robots {
         let of_robot = || samples.iter().filter(move |s| s.robot == robot);
         let before = |limit: f64| of_robot().rfind(|s| s.time_s < limit).copied();
@@ -181,13 +217,17 @@ pub fn cost_per_keyframe(samples: &[Sample], from_s: f64, to_s: f64) -> Option<(
             keyframes: 0,
             backend_ms: 0.0,
             verifier_ms: 0.0,
+            verified: 0,
+            loop_changes: 0,
         });
         let Some(end) = before(to_s) else { continue };
-        keyframes += end.keyframes.saturating_sub(start.keyframes);
-        backend_ms += end.backend_ms - start.backend_ms;
-        verifier_ms += end.verifier_ms - start.verifier_ms;
+        total.keyframes += end.keyframes.saturating_sub(start.keyframes);
+        total.backend_ms += end.backend_ms - start.backend_ms;
+        total.verifier_ms += end.verifier_ms - start.verifier_ms;
+        total.verified += end.verified.saturating_sub(start.verified);
+        total.loop_changes += end.loop_changes.saturating_sub(start.loop_changes);
     }
-    (keyframes > 0).then(|| (backend_ms / keyframes as f64, verifier_ms / keyframes as f64))
+    (total.keyframes > 0).then_some(total)
 }
 
 #[cfg(test)]
@@ -202,6 +242,8 @@ mod tests {
             keyframes,
             backend_ms,
             verifier_ms: 1.0,
+            verified: keyframes / 2,
+            loop_changes: keyframes,
         };
         let samples = [
             sample(0, 0.0, 1, 0.0),
@@ -212,8 +254,15 @@ mod tests {
         ];
         // Robot 0: 4 keyframes and 40 ms from its 50 s sample to its 110 s one; robot 1: 2 and 20 ms
         // from its 0 s sample.
-        let (backend, verifier) = cost_per_keyframe(&samples, 60.0, 120.0).unwrap();
-        assert!((backend - 10.0).abs() < 1e-12 && verifier.abs() < 1e-12);
-        assert_eq!(cost_per_keyframe(&samples, 200.0, 260.0), None);
+        let window = window(&samples, 60.0, 120.0).unwrap();
+        assert_eq!(
+            (window.keyframes, window.loop_changes, window.verified),
+            (6, 6, 3)
+        );
+        assert!((window.backend_ms_per_keyframe() - 10.0).abs() < 1e-12);
+        assert!(window.verifier_ms_per_keyframe().abs() < 1e-12);
+        assert_eq!(window.backend_ms_per_loop_change(), Some(10.0));
+        assert_eq!(window.verifier_ms_per_candidate(), Some(0.0));
+        assert_eq!(super::window(&samples, 200.0, 260.0), None);
     }
 }

@@ -9,7 +9,7 @@ use serde_json::Value;
 use skid_eval::plot::{PlotOptions, Series, line_plot};
 
 use crate::report::markdown_table;
-use crate::scale::{ScaleRun, cost_per_keyframe};
+use crate::scale::{ScaleRun, window};
 
 /// The stages whose CPU time per robot-scan the sweep reports, in pipeline order.
 pub const STAGES: [&str; 9] = [
@@ -100,27 +100,39 @@ pub fn fleet_row(run: &ScaleRun) -> FleetRow {
     }
 }
 
-/// The per-keyframe cost of the long mission over one minute of robot time.
+/// The per-keyframe cost of the long mission over one minute of robot time, and the work behind it.
 #[derive(Clone, Debug, Serialize)]
 pub struct MinuteRow {
     pub minute: u32,
+    pub keyframes: usize,
     pub backend_ms_per_keyframe: Option<f64>,
     pub verifier_ms_per_keyframe: Option<f64>,
+    /// Loop candidates the verifiers judged, and their time per candidate.
+    pub verified: usize,
+    pub verifier_ms_per_candidate: Option<f64>,
+    /// Loops the back-ends' graphs gained or lost, and the back-end time per such change.
+    pub loop_changes: usize,
+    pub backend_ms_per_loop_change: Option<f64>,
 }
 
 /// Every minute's row of the long mission, `1..=minutes` (minute m covers `[m-1, m)`).
 pub fn minute_rows(run: &ScaleRun, minutes: u32) -> Vec<MinuteRow> {
     (1..=minutes)
         .map(|minute| {
-            let window = cost_per_keyframe(
+            let window = window(
                 &run.samples,
                 f64::from(minute - 1) * 60.0,
                 f64::from(minute) * 60.0,
             );
             MinuteRow {
                 minute,
-                backend_ms_per_keyframe: window.map(|w| w.0),
-                verifier_ms_per_keyframe: window.map(|w| w.1),
+                keyframes: window.map_or(0, |w| w.keyframes),
+                backend_ms_per_keyframe: window.map(|w| w.backend_ms_per_keyframe()),
+                verifier_ms_per_keyframe: window.map(|w| w.verifier_ms_per_keyframe()),
+                verified: window.map_or(0, |w| w.verified),
+                verifier_ms_per_candidate: window.and_then(|w| w.verifier_ms_per_candidate()),
+                loop_changes: window.map_or(0, |w| w.loop_changes),
+                backend_ms_per_loop_change: window.and_then(|w| w.backend_ms_per_loop_change()),
             }
         })
         .collect()
@@ -235,6 +247,11 @@ pub fn long_markdown(rows: &[MinuteRow], checkpoints: &[u32], out: &Path) -> Res
         "verifier ms/keyframe",
         "sum",
         "× minute 1",
+        "keyframes",
+        "candidates verified",
+        "verifier ms/candidate",
+        "loop changes",
+        "back-end ms/loop change",
     ]
     .map(str::to_owned)
     .to_vec();
@@ -254,6 +271,11 @@ pub fn long_markdown(rows: &[MinuteRow], checkpoints: &[u32], out: &Path) -> Res
                 cell(row.verifier_ms_per_keyframe, 2),
                 cell(sum, 2),
                 cell(sum.zip(first).map(|(s, f)| s / f), 2),
+                row.keyframes.to_string(),
+                row.verified.to_string(),
+                cell(row.verifier_ms_per_candidate, 2),
+                row.loop_changes.to_string(),
+                cell(row.backend_ms_per_loop_change, 2),
             ]
         })
         .collect();

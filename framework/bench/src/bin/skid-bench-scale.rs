@@ -50,7 +50,7 @@ fn main() -> anyhow::Result<()> {
             }
             let fleet = fleet_row(&run);
             markdown.push_str(&format!(
-                "\n## Long mission\n\n{} robots, {} minutes of robot time ({} keyframes, {:.0} s wall, {} inter-robot loops, ATE α {} m); back-end and verifier time per new keyframe over the minute before each checkpoint.\n\n{}",
+                "\n## Long mission\n\n{} robots, {} minutes of robot time ({} keyframes, {:.0} s wall, {} inter-robot loops, ATE α {} m); back-end and verifier time per new keyframe over the minute before each checkpoint, with the work behind it: the loop candidates the verifiers judged and the loops the back-ends' graphs gained or lost.\n\n{}",
                 long.robots,
                 long.minutes,
                 fleet.keyframes,
