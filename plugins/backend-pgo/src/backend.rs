@@ -317,12 +317,12 @@ impl PgoBackend {
                 inner: settings,
                 ..GncSettings::default()
             };
-            let outcome = match self.memory.threshold_squared {
-                Some(threshold) if self.memory.warm_start_allowed() => {
+            let outcome = match self.memory.warm_start_threshold() {
+                Some(threshold) => {
                     let earlier = self.memory.earlier_labels(&subgraph.factor_loops);
                     gnc_tls_warm(&mut subgraph.problem, &gnc, threshold, &earlier, &mut self.cache)?
                 }
-                _ => {
+                None => {
                     let outcome = gnc_tls(&mut subgraph.problem, &gnc, &mut self.cache)?;
                     self.memory
                         .full_run(loop_count, strict_threshold(&outcome, nominal));

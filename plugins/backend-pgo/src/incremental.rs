@@ -35,11 +35,11 @@ pub struct Memory {
     /// Each loop's label after the last GNC run (1 inlier, 0 outlier).
     pub labels: BTreeMap<LoopId, f64>,
     /// The threshold the last full GNC run graduated at (its variance factor applied).
-    pub threshold_squared: Option<f64>,
+    threshold_squared: Option<f64>,
     /// The number of loops at the last full GNC run.
-    pub loops_at_full_run: usize,
+    loops_at_full_run: usize,
     /// Loops added or removed since the last full GNC run.
-    pub loop_changes_since_full_run: usize,
+    loop_changes_since_full_run: usize,
     /// The highest keyframe index of each peer that a loop touches: peer odometry up to there is
     /// composed into the subgraph.
     pub touched_up_to: BTreeMap<RobotId, u32>,
@@ -65,11 +65,12 @@ impl Default for Memory {
 }
 
 impl Memory {
-    /// Whether GNC may start warm from the last solution.
-    pub fn warm_start_allowed(&self) -> bool {
-        self.threshold_squared.is_some()
-            && self.loops_at_full_run >= MIN_LOOPS_FOR_WARM_START
-            && self.loop_changes_since_full_run < self.loops_at_full_run
+    /// The threshold a warm GNC start graduates at, or `None` when the next run must be a full one.
+    pub fn warm_start_threshold(&self) -> Option<f64> {
+        self.threshold_squared.filter(|_| {
+            self.loops_at_full_run >= MIN_LOOPS_FOR_WARM_START
+                && self.loop_changes_since_full_run < self.loops_at_full_run
+        })
     }
 
     /// Records that a loop joined or left the graph.
@@ -123,21 +124,34 @@ mod tests {
     #[test]
     fn warm_starts_until_the_loops_changed_as_many_times_as_the_full_run_had_loops() {
         let mut memory = Memory::default();
-        assert!(!memory.warm_start_allowed(), "no full run yet");
+        assert_eq!(memory.warm_start_threshold(), None, "no full run yet");
         memory.full_run(10, 16.8);
         for _ in 0..9 {
             memory.loop_changed();
         }
-        assert!(memory.warm_start_allowed(), "9 changes after a run over 10 loops");
+        assert_eq!(
+            memory.warm_start_threshold(),
+            Some(16.8),
+            "9 changes after a run over 10 loops"
+        );
         memory.loop_changed();
-        assert!(
-            !memory.warm_start_allowed(),
+        assert_eq!(
+            memory.warm_start_threshold(),
+            None,
             "10 changes: additions and removals both count"
         );
-        memory.full_run(12, 16.8);
-        assert!(memory.warm_start_allowed());
+        memory.full_run(12, 12.5);
+        assert_eq!(
+            memory.warm_start_threshold(),
+            Some(12.5),
+            "the new run's threshold"
+        );
         memory.full_run(MIN_LOOPS_FOR_WARM_START - 1, 16.8);
-        assert!(!memory.warm_start_allowed(), "too few loops for a consensus");
+        assert_eq!(
+            memory.warm_start_threshold(),
+            None,
+            "too few loops for a consensus"
+        );
     }
 
     #[test]

@@ -13,7 +13,6 @@ use skid_fine_gicp::{GicpConfig, GicpRegistration, PrepareTimings};
 use skid_io::{CloudReadOptions, pcd};
 
 use skid_bench::python_peers;
-
 use skid_bench::stats::median;
 
 use crate::Row;

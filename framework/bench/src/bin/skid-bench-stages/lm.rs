@@ -12,7 +12,6 @@ use skid_backend_pgo::{Initialization, PgoOptions, optimize_pose_graph};
 use skid_io::g2o::{G2oReadOptions, read_g2o_3d};
 
 use skid_bench::python_peers;
-
 use skid_bench::stats::median;
 
 use crate::Row;
