@@ -194,7 +194,20 @@ impl HeightField {
         let (ax, bx) = clip(ray.origin.x, ray.inv_dir.x, x0);
         let (ay, by) = clip(ray.origin.y, ray.inv_dir.y, y0);
         let mut t = ax.max(ay).max(0.0);
-        let t_end = bx.min(by).min(t_max);
+        let mut t_end = bx.min(by).min(t_max);
+        // Clip to the slab between the field's lowest and highest point as well: no surface lies above
+        // or below it, and a ray the sensor casts upwards leaves it soon after it starts.
+        let (z_low, z_high) = self.z_range_m();
+        if ray.dir.z != 0.0 {
+            let (az, bz) = (
+                (z_low - ray.origin.z) * ray.inv_dir.z,
+                (z_high - ray.origin.z) * ray.inv_dir.z,
+            );
+            t = t.max(az.min(bz));
+            t_end = t_end.min(az.max(bz));
+        } else if ray.origin.z > z_high || ray.origin.z < z_low {
+            return None;
+        }
         let top = self.levels.len() - 1;
         // Start a few levels up: sensors sit just above the ground, so the coarse nodes around the
         // origin always need descending; climbing on the way out restores the large skips.
