@@ -406,7 +406,97 @@ fn graduate_free<G: PoseGroup<D>, const D: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::tls_weight;
+    use nalgebra::{Isometry2, Matrix3, Vector2};
+
+    use super::{GncSettings, gnc_tls, tls_weight};
+    use crate::lm::SystemCache;
+    use crate::problem::{Problem, RawEdge, Unanchored};
+
+    /// A 24-pose square loop driven twice with slightly noisy odometry, loops between the two laps (all
+    /// true but one, which claims the robot stood 5 m and 90° elsewhere); the poses start at the odometry.
+    fn two_laps() -> (Problem<Isometry2<f64>, 3>, usize) {
+        let side = 6;
+        let truth: Vec<Isometry2<f64>> = (0..4 * side * 2)
+            .map(|k| {
+                let (edge, along) = ((k / side) % 4, (k % side) as f64);
+                let corner = [(0.0, 0.0), (6.0, 0.0), (6.0, 6.0), (0.0, 6.0)][edge];
+                let heading = edge as f64 * std::f64::consts::FRAC_PI_2;
+                Isometry2::new(
+                    Vector2::new(corner.0 + along * heading.cos(), corner.1 + along * heading.sin()),
+                    heading,
+                )
+            })
+            .collect();
+        let information = Matrix3::from_diagonal(&nalgebra::Vector3::new(100.0, 100.0, 400.0));
+        let mut edges = Vec::new();
+        for k in 1..truth.len() {
+            // A small bias per step, so the laps drift apart and the loops have work to do.
+            let bias = Isometry2::new(Vector2::new(0.01, 0.005), 0.004);
+            edges.push(RawEdge {
+                i: k - 1,
+                j: k,
+                measured: truth[k - 1].inverse() * truth[k] * bias,
+                information,
+                robust: false,
+            });
+        }
+        let lap = 4 * side;
+        for k in (0..lap).step_by(3) {
+            edges.push(RawEdge {
+                i: k,
+                j: k + lap,
+                measured: truth[k].inverse() * truth[k + lap],
+                information,
+                robust: true,
+            });
+        }
+        let wrong = edges.len();
+        edges.push(RawEdge {
+            i: 4,
+            j: 4 + lap + 7,
+            measured: Isometry2::new(Vector2::new(5.0, 0.0), std::f64::consts::FRAC_PI_2),
+            information,
+            robust: true,
+        });
+        let mut poses = vec![truth[0]];
+        for edge in edges.iter().take(truth.len() - 1) {
+            let last = poses[poses.len() - 1];
+            poses.push(last * edge.measured);
+        }
+        let mut fixed = vec![false; poses.len()];
+        fixed[0] = true;
+        let problem =
+            Problem::new(poses, fixed, &edges, Unanchored::Error, &|k| k.to_string()).expect("a valid graph");
+        (problem, wrong)
+    }
+
+    #[test]
+    fn one_step_per_update_keeps_the_loops_the_full_solves_keep() {
+        let run = |steps_per_update| {
+            let (mut problem, wrong) = two_laps();
+            let settings = GncSettings {
+                steps_per_update,
+                ..GncSettings::default()
+            };
+            let outcome = gnc_tls(&mut problem, &settings, &mut SystemCache::default()).expect("GNC runs");
+            (problem.poses, outcome, wrong)
+        };
+        let (one_step, one, wrong) = run(1);
+        let (full_solve, full, _) = run(100);
+        assert_eq!(one.weights, full.weights);
+        assert_eq!(one.weights[wrong], 0.0);
+        assert_eq!(one.weights.iter().filter(|w| **w == 0.0).count(), 1);
+        assert!(one.factorizations < full.factorizations);
+        for (a, b) in one_step.iter().zip(&full_solve) {
+            assert!((a.translation.vector - b.translation.vector).norm() < 1e-4);
+        }
+        let (mut problem, _) = two_laps();
+        let none = GncSettings {
+            steps_per_update: 0,
+            ..GncSettings::default()
+        };
+        assert!(gnc_tls(&mut problem, &none, &mut SystemCache::default()).is_err());
+    }
 
     #[test]
     fn weights_go_from_convex_to_binary() {
