@@ -78,6 +78,24 @@ impl Default for GncSettings {
     }
 }
 
+impl GncSettings {
+    /// Refuses settings no GNC run can use: a threshold that is not positive, a `μ` factor that does not
+    /// grow `μ`, no step per update.
+    fn check(&self) -> Result<(), PgoError> {
+        if self.threshold_squared.is_finite()
+            && self.threshold_squared > 0.0
+            && self.mu_factor > 1.0
+            && self.steps_per_update > 0
+        {
+            Ok(())
+        } else {
+            Err(PgoError::Option(
+                "GNC needs a positive threshold, a mu factor above 1 and at least one step per update".into(),
+            ))
+        }
+    }
+}
+
 /// What a GNC run did.
 #[derive(Clone, Debug)]
 pub struct GncOutcome {
@@ -122,15 +140,7 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
     settings: &GncSettings,
     cache: &mut SystemCache<D>,
 ) -> Result<GncOutcome, PgoError> {
-    if !(settings.threshold_squared.is_finite()
-        && settings.threshold_squared > 0.0
-        && settings.mu_factor > 1.0
-        && settings.steps_per_update > 0)
-    {
-        return Err(PgoError::Option(
-            "GNC needs a positive threshold, a mu factor above 1 and at least one step per update".into(),
-        ));
-    }
+    settings.check()?;
     let free: Vec<bool> = problem.factors.iter().map(|f| f.robust).collect();
     let weights = vec![1.0; problem.factors.len()];
     let start = solve_start(problem, settings, cache, &weights, &free)?;
@@ -179,13 +189,10 @@ pub fn gnc_tls_warm<G: PoseGroup<D>, const D: usize>(
     earlier: &[Option<f64>],
     cache: &mut SystemCache<D>,
 ) -> Result<GncOutcome, PgoError> {
-    if earlier.len() != problem.factors.len()
-        || !(threshold_squared.is_finite() && threshold_squared > 0.0)
-        || settings.steps_per_update == 0
-    {
+    settings.check()?;
+    if earlier.len() != problem.factors.len() || !(threshold_squared.is_finite() && threshold_squared > 0.0) {
         return Err(PgoError::Option(
-            "a warm GNC start needs one earlier label per factor, a positive threshold and at least one step per update"
-                .into(),
+            "a warm GNC start needs one earlier label per factor and a positive threshold".into(),
         ));
     }
     let mut weights = vec![1.0; problem.factors.len()];
