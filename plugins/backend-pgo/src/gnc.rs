@@ -320,8 +320,9 @@ fn solve_start<G: PoseGroup<D>, const D: usize>(
 }
 
 /// One graduated run at threshold `c2` from `start` (the current poses), in which only the factors marked
-/// `free` change weight; the others keep the weight `weights` gives them (1 for odometry, a loop's
-/// earlier label in a warm start). The counts of the outcome leave out the start's solve.
+/// `free` change weight; they enter with weight 1 in `weights`, and the others keep the weight `weights`
+/// gives them (1 for odometry, a loop's earlier label in a warm start). The counts of the outcome leave
+/// out the start's solve.
 fn graduate_free<G: PoseGroup<D>, const D: usize>(
     problem: &mut Problem<G, D>,
     settings: &GncSettings,
@@ -332,11 +333,6 @@ fn graduate_free<G: PoseGroup<D>, const D: usize>(
     start: &Start,
 ) -> Result<GncOutcome, PgoError> {
     let mut last = start.solve.clone();
-    for (w, is_free) in weights.iter_mut().zip(free) {
-        if *is_free {
-            *w = 1.0;
-        }
-    }
     let step = LmSettings {
         max_iterations: settings.inner.max_iterations.min(settings.steps_per_update),
         ..settings.inner
