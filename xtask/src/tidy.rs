@@ -1,6 +1,7 @@
 //! The house rules, checked on every `.rs` file of the workspace: a `//!` module doc at the top, no file
 //! over 800 lines, and no `.unwrap()` in library code (anything outside tests, benches, examples, build
-//! scripts and `#[cfg(test)]` modules).
+//! scripts and `#[cfg(test)]` modules). Vendored third-party crates (`third_party/`) keep their upstream
+//! form and are not checked.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -24,7 +25,7 @@ impl fmt::Display for Violation {
     }
 }
 
-/// Checks every Rust file under `root`, skipping `target/` and hidden folders.
+/// Checks every Rust file under `root`, skipping `target/`, `third_party/` and hidden folders.
 pub fn check(root: &Path) -> Result<Vec<Violation>> {
     let mut files = Vec::new();
     collect(root, &mut files)?;
@@ -46,7 +47,7 @@ fn collect(dir: &Path, files: &mut Vec<PathBuf>) -> Result<()> {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         if path.is_dir() {
-            if name != "target" && !name.starts_with('.') {
+            if name != "target" && name != "third_party" && !name.starts_with('.') {
                 collect(&path, files)?;
             }
         } else if name.ends_with(".rs") {
