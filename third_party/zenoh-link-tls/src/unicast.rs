@@ -14,18 +14,21 @@
 #[cfg(all(feature = "uring", target_os = "linux"))]
 use std::os::fd::RawFd;
 use std::{
-    cell::UnsafeCell,
     convert::TryInto,
     fmt::{self, Debug},
+    future::poll_fn,
+    io,
     net::SocketAddr,
-    sync::Arc,
+    pin::Pin,
+    sync::{Arc, Mutex, MutexGuard, PoisonError},
+    task::{Context, Poll},
     time::Duration,
 };
 
 use async_trait::async_trait;
 use time::OffsetDateTime;
 use tokio::{
-    io::{AsyncReadExt, AsyncWriteExt},
+    io::{AsyncRead, AsyncWrite, AsyncWriteExt, ReadBuf},
     net::{TcpListener, TcpStream},
     sync::Mutex as AsyncMutex,
 };
@@ -55,15 +58,13 @@ use crate::{
 pub struct TlsCommonName(String);
 
 pub struct LinkUnicastTls {
-    // The underlying socket as returned from the async-rustls library
-    // NOTE: TlsStream requires &mut for read and write operations. This means
-    //       that concurrent reads and writes are not possible. To achieve that,
-    //       we use an UnsafeCell for interior mutability. Using an UnsafeCell
-    //       is safe in our case since the transmission and reception logic
-    //       already ensures that no concurrent reads or writes can happen on
-    //       the same stream: there is only one task at the time that writes on
-    //       the stream and only one task at the time that reads from the stream.
-    inner: UnsafeCell<TlsStream<TcpStream>>,
+    // The underlying socket as returned from the async-rustls library.
+    // SKiD patch (eclipse-zenoh/zenoh#2557): a read and a write may be in
+    // progress at once, but rustls does not allow its connection to be used
+    // from two tasks at the same time. Every poll of the stream therefore
+    // takes this lock, held only for that one synchronous poll and never
+    // across an await, so the reader's and the writer's polls take turns.
+    inner: Mutex<TlsStream<TcpStream>>,
     // The source socket address of this link (address used on the local host)
     src_addr: SocketAddr,
     src_locator: Locator,
@@ -77,9 +78,6 @@ pub struct LinkUnicastTls {
     mtu: BatchSize,
     expiration_manager: Option<LinkCertExpirationManager>,
 }
-
-unsafe impl Send for LinkUnicastTls {}
-unsafe impl Sync for LinkUnicastTls {}
 
 impl LinkUnicastTls {
     fn new(
@@ -138,7 +136,7 @@ impl LinkUnicastTls {
 
         // Build the Tls object
         LinkUnicastTls {
-            inner: UnsafeCell::new(socket),
+            inner: Mutex::new(socket),
             src_addr,
             src_locator: Locator::new(TLS_LOCATOR_PREFIX, src_addr.to_string(), "").unwrap(),
             dst_addr,
@@ -151,24 +149,69 @@ impl LinkUnicastTls {
         }
     }
 
-    // NOTE: It is safe to suppress Clippy warning since no concurrent reads
-    //       or concurrent writes will ever happen. The read_mtx and write_mtx
-    //       are respectively acquired in any read and write operation.
-    #[allow(clippy::mut_from_ref)]
-    fn get_mut_socket(&self) -> &mut TlsStream<TcpStream> {
-        unsafe { &mut *self.inner.get() }
+    // The stream, locked for one poll. A panic in an earlier poll leaves a
+    // stream whose state rustls itself guards, so a poisoned lock is used as is.
+    fn lock_stream(&self) -> MutexGuard<'_, TlsStream<TcpStream>> {
+        self.inner.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    // Drives `poll` to completion, each poll under the stream's lock.
+    async fn with_stream<R>(
+        &self,
+        mut poll: impl FnMut(Pin<&mut TlsStream<TcpStream>>, &mut Context<'_>) -> Poll<io::Result<R>>,
+    ) -> io::Result<R> {
+        poll_fn(|cx| poll(Pin::new(&mut *self.lock_stream()), cx)).await
+    }
+
+    async fn write_some(&self, buffer: &[u8]) -> io::Result<usize> {
+        self.with_stream(|stream, cx| stream.poll_write(cx, buffer))
+            .await
+    }
+
+    async fn write_whole(&self, buffer: &[u8]) -> io::Result<()> {
+        let mut written = 0;
+        while written < buffer.len() {
+            match self.write_some(&buffer[written..]).await? {
+                0 => return Err(io::ErrorKind::WriteZero.into()),
+                n => written += n,
+            }
+        }
+        Ok(())
+    }
+
+    async fn read_some(&self, buffer: &mut [u8]) -> io::Result<usize> {
+        self.with_stream(|stream, cx| {
+            let mut read = ReadBuf::new(buffer);
+            match stream.poll_read(cx, &mut read) {
+                Poll::Ready(Ok(())) => Poll::Ready(Ok(read.filled().len())),
+                Poll::Ready(Err(e)) => Poll::Ready(Err(e)),
+                Poll::Pending => Poll::Pending,
+            }
+        })
+        .await
+    }
+
+    async fn read_whole(&self, buffer: &mut [u8]) -> io::Result<()> {
+        let mut filled = 0;
+        while filled < buffer.len() {
+            match self.read_some(&mut buffer[filled..]).await? {
+                0 => return Err(io::ErrorKind::UnexpectedEof.into()),
+                n => filled += n,
+            }
+        }
+        Ok(())
     }
 
     async fn close(&self) -> ZResult<()> {
         tracing::trace!("Closing TLS link: {}", self);
         // Flush the TLS stream
         let _guard = zasynclock!(self.write_mtx);
-        let tls_stream = self.get_mut_socket();
-        let res = tls_stream.flush().await;
+        let res = self.with_stream(|stream, cx| stream.poll_flush(cx)).await;
         tracing::trace!("TLS link flush {}: {:?}", self, res);
         // Close the underlying TCP stream
-        let (tcp_stream, _) = tls_stream.get_mut();
-        let res = tcp_stream.shutdown().await;
+        let res = self
+            .with_stream(|stream, cx| Pin::new(&mut stream.get_mut().get_mut().0).poll_shutdown(cx))
+            .await;
         tracing::trace!("TLS link shutdown {}: {:?}", self, res);
         res.map_err(|e| zerror!(e).into())
     }
@@ -193,7 +236,7 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn write(&self, buffer: &[u8], _priority: Option<Priority>) -> ZResult<usize> {
         let _guard = zasynclock!(self.write_mtx);
-        self.get_mut_socket().write(buffer).await.map_err(|e| {
+        self.write_some(buffer).await.map_err(|e| {
             tracing::trace!("Write error on TLS link {}: {}", self, e);
             zerror!(e).into()
         })
@@ -201,7 +244,7 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn write_all(&self, buffer: &[u8], _priority: Option<Priority>) -> ZResult<()> {
         let _guard = zasynclock!(self.write_mtx);
-        self.get_mut_socket().write_all(buffer).await.map_err(|e| {
+        self.write_whole(buffer).await.map_err(|e| {
             tracing::trace!("Write error on TLS link {}: {}", self, e);
             zerror!(e).into()
         })
@@ -209,7 +252,7 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn read(&self, buffer: &mut [u8], _priority: Option<Priority>) -> ZResult<usize> {
         let _guard = zasynclock!(self.read_mtx);
-        self.get_mut_socket().read(buffer).await.map_err(|e| {
+        self.read_some(buffer).await.map_err(|e| {
             tracing::trace!("Read error on TLS link {}: {}", self, e);
             zerror!(e).into()
         })
@@ -217,14 +260,10 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn read_exact(&self, buffer: &mut [u8], _priority: Option<Priority>) -> ZResult<()> {
         let _guard = zasynclock!(self.read_mtx);
-        let _ = self
-            .get_mut_socket()
-            .read_exact(buffer)
-            .await
-            .map_err(|e| {
-                tracing::trace!("Read error on TLS link {}: {}", self, e);
-                zerror!(e)
-            })?;
+        self.read_whole(buffer).await.map_err(|e| {
+            tracing::trace!("Read error on TLS link {}: {}", self, e);
+            zerror!(e)
+        })?;
         Ok(())
     }
 
@@ -287,7 +326,8 @@ impl LinkWithCertExpiration for LinkUnicastTls {
 impl Drop for LinkUnicastTls {
     fn drop(&mut self) {
         // Close the underlying TCP stream
-        let (tcp_stream, _) = self.get_mut_socket().get_mut();
+        let stream = self.inner.get_mut().unwrap_or_else(PoisonError::into_inner);
+        let (tcp_stream, _) = stream.get_mut();
         let _ = zenoh_runtime::ZRuntime::Acceptor
             .block_in_place(async move { tcp_stream.shutdown().await });
     }
