@@ -28,7 +28,7 @@ use std::{
 use async_trait::async_trait;
 use time::OffsetDateTime;
 use tokio::{
-    io::{AsyncRead, AsyncWrite, AsyncWriteExt, ReadBuf},
+    io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt, ReadBuf},
     net::{TcpListener, TcpStream},
     sync::Mutex as AsyncMutex,
 };
@@ -155,65 +155,55 @@ impl LinkUnicastTls {
         self.inner.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    // Drives `poll` to completion, each poll under the stream's lock.
-    async fn with_stream<R>(
-        &self,
-        mut poll: impl FnMut(Pin<&mut TlsStream<TcpStream>>, &mut Context<'_>) -> Poll<io::Result<R>>,
-    ) -> io::Result<R> {
-        poll_fn(|cx| poll(Pin::new(&mut *self.lock_stream()), cx)).await
-    }
-
-    async fn write_some(&self, buffer: &[u8]) -> io::Result<usize> {
-        self.with_stream(|stream, cx| stream.poll_write(cx, buffer))
-            .await
-    }
-
-    async fn write_whole(&self, buffer: &[u8]) -> io::Result<()> {
-        let mut written = 0;
-        while written < buffer.len() {
-            match self.write_some(&buffer[written..]).await? {
-                0 => return Err(io::ErrorKind::WriteZero.into()),
-                n => written += n,
-            }
-        }
-        Ok(())
-    }
-
-    async fn read_some(&self, buffer: &mut [u8]) -> io::Result<usize> {
-        self.with_stream(|stream, cx| {
-            let mut read = ReadBuf::new(buffer);
-            match stream.poll_read(cx, &mut read) {
-                Poll::Ready(Ok(())) => Poll::Ready(Ok(read.filled().len())),
-                Poll::Ready(Err(e)) => Poll::Ready(Err(e)),
-                Poll::Pending => Poll::Pending,
-            }
-        })
-        .await
-    }
-
-    async fn read_whole(&self, buffer: &mut [u8]) -> io::Result<()> {
-        let mut filled = 0;
-        while filled < buffer.len() {
-            match self.read_some(&mut buffer[filled..]).await? {
-                0 => return Err(io::ErrorKind::UnexpectedEof.into()),
-                n => filled += n,
-            }
-        }
-        Ok(())
+    // The stream as tokio's I/O traits see it, each poll under the lock.
+    fn stream(&self) -> LockedStream<'_> {
+        LockedStream(self)
     }
 
     async fn close(&self) -> ZResult<()> {
         tracing::trace!("Closing TLS link: {}", self);
         // Flush the TLS stream
         let _guard = zasynclock!(self.write_mtx);
-        let res = self.with_stream(|stream, cx| stream.poll_flush(cx)).await;
+        let res = self.stream().flush().await;
         tracing::trace!("TLS link flush {}: {:?}", self, res);
         // Close the underlying TCP stream
-        let res = self
-            .with_stream(|stream, cx| Pin::new(&mut stream.get_mut().get_mut().0).poll_shutdown(cx))
-            .await;
+        let res =
+            poll_fn(|cx| Pin::new(&mut self.lock_stream().get_mut().0).poll_shutdown(cx)).await;
         tracing::trace!("TLS link shutdown {}: {:?}", self, res);
         res.map_err(|e| zerror!(e).into())
+    }
+}
+
+// A link's stream seen through its lock (SKiD patch): each poll locks the
+// stream for that poll only, so tokio's read, read_exact, write, write_all
+// and flush loops never hold it across an await.
+struct LockedStream<'a>(&'a LinkUnicastTls);
+
+impl AsyncRead for LockedStream<'_> {
+    fn poll_read(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<io::Result<()>> {
+        Pin::new(&mut *self.0.lock_stream()).poll_read(cx, buf)
+    }
+}
+
+impl AsyncWrite for LockedStream<'_> {
+    fn poll_write(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        Pin::new(&mut *self.0.lock_stream()).poll_write(cx, buf)
+    }
+
+    fn poll_flush(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut *self.0.lock_stream()).poll_flush(cx)
+    }
+
+    fn poll_shutdown(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut *self.0.lock_stream()).poll_shutdown(cx)
     }
 }
 
@@ -236,7 +226,7 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn write(&self, buffer: &[u8], _priority: Option<Priority>) -> ZResult<usize> {
         let _guard = zasynclock!(self.write_mtx);
-        self.write_some(buffer).await.map_err(|e| {
+        self.stream().write(buffer).await.map_err(|e| {
             tracing::trace!("Write error on TLS link {}: {}", self, e);
             zerror!(e).into()
         })
@@ -244,7 +234,7 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn write_all(&self, buffer: &[u8], _priority: Option<Priority>) -> ZResult<()> {
         let _guard = zasynclock!(self.write_mtx);
-        self.write_whole(buffer).await.map_err(|e| {
+        self.stream().write_all(buffer).await.map_err(|e| {
             tracing::trace!("Write error on TLS link {}: {}", self, e);
             zerror!(e).into()
         })
@@ -252,7 +242,7 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn read(&self, buffer: &mut [u8], _priority: Option<Priority>) -> ZResult<usize> {
         let _guard = zasynclock!(self.read_mtx);
-        self.read_some(buffer).await.map_err(|e| {
+        self.stream().read(buffer).await.map_err(|e| {
             tracing::trace!("Read error on TLS link {}: {}", self, e);
             zerror!(e).into()
         })
@@ -260,7 +250,7 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn read_exact(&self, buffer: &mut [u8], _priority: Option<Priority>) -> ZResult<()> {
         let _guard = zasynclock!(self.read_mtx);
-        self.read_whole(buffer).await.map_err(|e| {
+        self.stream().read_exact(buffer).await.map_err(|e| {
             tracing::trace!("Read error on TLS link {}: {}", self, e);
             zerror!(e)
         })?;
