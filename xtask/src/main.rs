@@ -11,6 +11,7 @@
 //! - `bench-readme`: regenerates README.md's "Results" section from `target/bench/*/results.md`.
 
 use std::process::{Command, ExitCode};
+use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
@@ -77,18 +78,23 @@ fn cargo() -> Command {
     command
 }
 
+/// Runs `command` to the end and says how long it took, so a CI log shows where its time goes.
 fn run(mut command: Command) -> Result<()> {
     eprintln!("xtask: running {command:?}");
+    let started = Instant::now();
     let status = command
         .status()
         .with_context(|| format!("starting {command:?}"))?;
+    let seconds = started.elapsed().as_secs_f64();
     if !status.success() {
-        bail!("{command:?} failed with {status}");
+        bail!("{command:?} failed with {status} after {seconds:.0} s");
     }
+    eprintln!("xtask: finished in {seconds:.0} s: {command:?}");
     Ok(())
 }
 
 fn ci() -> Result<()> {
+    let started = Instant::now();
     let mut fmt = cargo();
     fmt.args(["fmt", "--all", "--", "--check"]);
     run(fmt)?;
@@ -131,7 +137,9 @@ fn ci() -> Result<()> {
     let mut test = cargo();
     test.args(["test", "--workspace", "--features", "skid/rerun"]);
     test.env(xtask::python::PYTHON_VAR, &python);
-    run(test)
+    run(test)?;
+    eprintln!("xtask: ci passed in {:.0} s", started.elapsed().as_secs_f64());
+    Ok(())
 }
 
 fn tidy() -> Result<()> {
@@ -198,11 +206,6 @@ fn bench(profile: &str, args: &[String]) -> Result<()> {
         command.arg("--config").arg(parameters);
     }
     command.args(args);
-    let started = std::time::Instant::now();
-    let result = run(command);
-    eprintln!(
-        "xtask: bench {profile} took {:.1} s (including the build)",
-        started.elapsed().as_secs_f64()
-    );
-    result
+    // `run` says how long the build and the profile took together.
+    run(command)
 }
