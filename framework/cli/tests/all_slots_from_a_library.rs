@@ -12,36 +12,17 @@ fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// Builds the example plugin library with this test's cargo, profile and target folder.
+/// The example plugin library. `skid-example-cdylib` is a dev-dependency of this crate, so cargo built
+/// its cdylib into the folder this test binary runs from, with this build's profile and features.
 fn example_library() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
-    let profile_dir = exe.parent().and_then(Path::parent).unwrap().to_owned();
-    let profile = match profile_dir.file_name().and_then(|name| name.to_str()) {
-        Some("debug") => "dev".to_owned(),
-        Some(other) => other.to_owned(),
-        None => panic!("no profile folder above {}", exe.display()),
-    };
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(workspace())
-        .args([
-            "build",
-            "--quiet",
-            "-p",
-            "skid-example-cdylib",
-            "--profile",
-            &profile,
-            "--target-dir",
-        ])
-        .arg(profile_dir.parent().unwrap())
-        .status()
-        .unwrap();
-    assert!(status.success(), "building skid-example-cdylib failed");
-    profile_dir.join(format!(
+    let path = exe.parent().unwrap().join(format!(
         "{}skid_example_cdylib{}",
         std::env::consts::DLL_PREFIX,
         std::env::consts::DLL_SUFFIX
-    ))
+    ));
+    assert!(path.is_file(), "{} is missing", path.display());
+    path
 }
 
 /// A run's summary, with the given plugin library and slot choices.
