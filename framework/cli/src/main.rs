@@ -252,7 +252,7 @@ struct SimFlags {
     #[arg(long, default_value_t = 7)]
     seed: u64,
     /// What the fleet does.
-    #[arg(long, default_value = "explore_meet", value_parser = ["explore_meet", "rendezvous", "crossing", "reverse", "partial", "loner", "shared_route"])]
+    #[arg(long, default_value = "explore_meet", value_parser = ["explore_meet", "rendezvous", "crossing", "reverse", "partial", "loner", "shared_route", "convoy"])]
     mission: String,
     /// Length of each robot's route, metres.
     #[arg(long, value_name = "METRES", default_value_t = 600.0)]

@@ -32,7 +32,7 @@ mod source;
 pub mod trajectory;
 
 pub use imu::{ImuNoise, ImuSimulator};
-pub use mission::{Mission, plan_mission};
+pub use mission::{CONVOY_GAP_M, Mission, plan_mission};
 pub use motion::{MotionSpec, Profile};
 pub use route::{Overlap, Route, plan_route};
 pub use scan::{ScanNoise, simulate_sweep};

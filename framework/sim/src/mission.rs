@@ -44,10 +44,18 @@ pub enum Mission {
     /// Every robot relates to one base walk (leader, reverse, same direction, partial, crossing, far
     /// start; see [`crate::Overlap`]); the robots share one route's roads.
     SharedRoute,
+    /// Robots deployed from one base drive one route in the same direction, [`CONVOY_GAP_M`] apart:
+    /// each passes where the robot ahead was a short while before, from the first minute to the last.
+    /// Their inter-robot loops come at a steady rate, which is what a long mission needs to show whether
+    /// the cost of handling them grows with the mission.
+    Convoy,
 }
 
+/// Metres along the route between consecutive robots of a [`Mission::Convoy`].
+pub const CONVOY_GAP_M: f64 = 30.0;
+
 impl Mission {
-    pub const ALL: [Mission; 7] = [
+    pub const ALL: [Mission; 8] = [
         Mission::ExploreMeet,
         Mission::Rendezvous,
         Mission::Crossing,
@@ -55,6 +63,7 @@ impl Mission {
         Mission::Partial,
         Mission::Loner,
         Mission::SharedRoute,
+        Mission::Convoy,
     ];
 
     pub const fn name(self) -> &'static str {
@@ -66,6 +75,7 @@ impl Mission {
             Mission::Partial => "partial",
             Mission::Loner => "loner",
             Mission::SharedRoute => "shared_route",
+            Mission::Convoy => "convoy",
         }
     }
 }
@@ -289,6 +299,81 @@ fn crossing(graph: &RoadGraph, rng: &mut Rng, robots: usize, length_m: f64) -> V
         .collect()
 }
 
+/// A convoy of `count` robots (see [`Mission::Convoy`]): one walk from the central junction, long enough
+/// for the last robot's route, and each robot's stretch of it, `length_m` long, the leader (robot 0)
+/// [`CONVOY_GAP_M`] ahead of robot 1, and so on.
+fn convoy(graph: &RoadGraph, rng: &mut Rng, count: usize, length_m: f64) -> Vec<Route> {
+    let spread_m = CONVOY_GAP_M * count.saturating_sub(1) as f64;
+    let base = walk(
+        graph,
+        rng,
+        central_junction(graph),
+        length_m + spread_m,
+        &[],
+        None,
+    );
+    let line = centre_line_of(graph, &base);
+    (0..count)
+        .map(|r| {
+            let ahead_m = CONVOY_GAP_M * (count - 1 - r) as f64;
+            let role = if r == 0 {
+                "leads the convoy".to_owned()
+            } else {
+                format!(
+                    "drives the convoy's route {:.0} m behind the leader",
+                    CONVOY_GAP_M * r as f64
+                )
+            };
+            Route {
+                robot: r as u32,
+                role,
+                steps: steps_between(graph, &base, ahead_m, ahead_m + length_m),
+                centre_line: cut_line(&line, ahead_m, ahead_m + length_m),
+            }
+        })
+        .collect()
+}
+
+/// The steps of `steps` that some of the stretch from `from_m` to `to_m` along them lies on.
+fn steps_between(graph: &RoadGraph, steps: &[(usize, usize)], from_m: f64, to_m: f64) -> Steps {
+    let mut start_m = 0.0;
+    let mut kept = Vec::new();
+    for &(edge, from) in steps {
+        let end_m = start_m + graph.edge_length_m(edge);
+        if end_m > from_m && start_m < to_m {
+            kept.push((edge, from));
+        }
+        start_m = end_m;
+    }
+    kept
+}
+
+/// The part of polyline `line` from `from_m` to `to_m` along it (3-D length), its ends interpolated.
+fn cut_line(line: &[[f64; 3]], from_m: f64, to_m: f64) -> Vec<[f64; 3]> {
+    let mut out: Vec<[f64; 3]> = Vec::new();
+    let mut start_m = 0.0;
+    for w in line.windows(2) {
+        let length_m = (0..3).map(|k| (w[1][k] - w[0][k]).powi(2)).sum::<f64>().sqrt();
+        let end_m = start_m + length_m;
+        let at = |m: f64| -> [f64; 3] {
+            let t = if length_m > 0.0 {
+                ((m - start_m) / length_m).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            std::array::from_fn(|k| w[0][k] + (w[1][k] - w[0][k]) * t)
+        };
+        if end_m >= from_m && start_m <= to_m {
+            if out.is_empty() {
+                out.push(at(from_m.max(start_m)));
+            }
+            out.push(at(to_m.min(end_m)));
+        }
+        start_m = end_m;
+    }
+    out
+}
+
 /// The routes of `mission` for a fleet of `robots` on `world`, each about `length_m` long.
 pub fn plan_mission(world: &World, mission: Mission, seed: u64, robots: u32, length_m: f64) -> Vec<Route> {
     let graph = world.graph();
@@ -300,6 +385,7 @@ pub fn plan_mission(world: &World, mission: Mission, seed: u64, robots: u32, len
                 .map(|r| plan_route(world, seed, r, length_m))
                 .collect();
         }
+        Mission::Convoy => return convoy(graph, &mut rng, count, length_m),
         Mission::ExploreMeet => explore_meet(graph, &mut rng, count, length_m),
         Mission::Rendezvous => rendezvous(graph, &mut rng, count, length_m),
         Mission::Crossing => crossing(graph, &mut rng, count, length_m),

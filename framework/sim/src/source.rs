@@ -38,7 +38,8 @@ pub struct SimConfig {
     pub robots: u32,
     /// What the fleet does: `explore_meet` (robots start apart, explore, cross at a junction and drive
     /// each other's paths backwards), `rendezvous`, `crossing`, `reverse`, `partial`, `loner` (one robot
-    /// never meets the others) or `shared_route` (patterns around one base walk).
+    /// never meets the others), `shared_route` (patterns around one base walk) or `convoy` (one route
+    /// the same way, robots a fixed gap apart).
     pub mission: Mission,
     /// Scans to produce; 0 = until the end of the route.
     pub frames: u32,

@@ -1,11 +1,12 @@
 //! Missions do what their names promise, in every world: robots of `explore_meet` start apart and every
 //! pair meets twice (crossing at an angle, and on a reverse traverse of one robot's sector); `rendezvous` brings every
 //! robot to one place; `crossing` meets only where paths cross, at an angle; `reverse` drives one route
-//! both ways; `loner`'s last robot never comes near the others. Checked on the routes' centre lines.
+//! both ways; `loner`'s last robot never comes near the others; `convoy` robots drive one route the same way,
+//! a fixed gap apart. Checked on the routes' centre lines.
 
 mod common;
 
-use skid_sim::{Mission, WorldKind, plan_mission};
+use skid_sim::{CONVOY_GAP_M, Mission, WorldKind, plan_mission};
 
 type Line = Vec<[f64; 3]>;
 
@@ -173,6 +174,40 @@ fn reverse_drives_one_route_both_ways_and_the_loner_stays_away() {
             !near_headings(&routes[0], &routes[1], 6.0).is_empty(),
             "{kind}: the others do meet"
         );
+    }
+}
+
+#[test]
+fn a_convoy_drives_one_route_the_same_way_a_gap_apart() {
+    for kind in WorldKind::ALL {
+        let length_m = 300.0;
+        let routes = lines(kind, Mission::Convoy, 3, length_m);
+        for (r, line) in routes.iter().enumerate() {
+            let driven = line_length_m(line);
+            assert!(
+                (driven - length_m).abs() < 0.05 * length_m,
+                "{kind}: robot {r} drives {driven:.0} m"
+            );
+        }
+        for r in 1..3 {
+            // The robot behind starts one gap (along the road) behind the one ahead, and drives where it
+            // drove, in the same direction, up to the last gap of its route.
+            let (ahead, behind) = (&routes[r - 1], &routes[r]);
+            let (a, b) = (ahead[0], behind[0]);
+            let apart = (a[0] - b[0]).hypot(a[1] - b[1]);
+            assert!(
+                apart <= CONVOY_GAP_M + 0.5 && apart > 0.5 * CONVOY_GAP_M,
+                "{kind}: robots {} and {r} start {apart:.1} m apart",
+                r - 1
+            );
+            let near = near_headings(behind, ahead, 1.0);
+            let same_way = near.iter().filter(|d| **d < 0.3).count() as f64;
+            assert!(
+                same_way >= 0.95 * (length_m - CONVOY_GAP_M),
+                "{kind}: robot {r} drives {same_way} m of robot {}'s route the same way",
+                r - 1
+            );
+        }
     }
 }
 
