@@ -1,6 +1,6 @@
 //! How SKiD's cost grows with the fleet and with the mission (issue #18): the default pipeline on the
 //! simulator with N robots (shorter routes as N grows, so every fleet reads about the same number of
-//! scans), and one long mission whose back-end and verifier time per keyframe is read at chosen minutes
+//! scans), and long missions whose back-end and verifier time per keyframe is read at chosen minutes
 //! of robot time. Every run is the real runtime (`skid_runtime::Fleet`, the `threads` executor) built
 //! from `configs/default.toml` and the profile's overrides; a [`Timeline`] observer samples each host's
 //! stage clocks after every scan.
@@ -23,10 +23,12 @@ pub struct FleetCase {
     pub route_length_m: f64,
 }
 
-/// The long mission.
+/// A long mission.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LongMission {
+    /// Names the mission in the report and its plot's file.
+    pub name: String,
     pub robots: u32,
     /// Robot time, minutes (10 Hz scans).
     pub minutes: u32,
@@ -39,6 +41,7 @@ pub struct LongMission {
 impl Default for LongMission {
     fn default() -> Self {
         Self {
+            name: "long".to_owned(),
             robots: 3,
             minutes: 20,
             checkpoints_min: vec![1, 5, 10, 20],
@@ -54,7 +57,8 @@ pub struct ScaleSettings {
     pub fleets: Vec<FleetCase>,
     /// `--set`-style overrides applied to every run.
     pub sets: Vec<String>,
-    pub long: LongMission,
+    /// The long missions, run after the fleets (`[[long]]` in the profile).
+    pub long: Vec<LongMission>,
 }
 
 impl Default for ScaleSettings {
@@ -72,7 +76,7 @@ impl Default for ScaleSettings {
                 case(16, 300, 45.0),
             ],
             sets: Vec::new(),
-            long: LongMission::default(),
+            long: vec![LongMission::default()],
         }
     }
 }

@@ -239,8 +239,8 @@ pub fn fleet_markdown(rows: &[FleetRow], out: &Path) -> Result<String> {
     Ok(text)
 }
 
-/// The long mission's checkpoint table and its per-minute plot (written into `out`).
-pub fn long_markdown(rows: &[MinuteRow], checkpoints: &[u32], out: &Path) -> Result<String> {
+/// A long mission's checkpoint table and its per-minute plot (written to `plot_path`).
+pub fn long_markdown(rows: &[MinuteRow], checkpoints: &[u32], plot_path: &Path) -> Result<String> {
     let header: Vec<String> = [
         "minute",
         "back-end ms/keyframe",
@@ -289,7 +289,7 @@ pub fn long_markdown(rows: &[MinuteRow], checkpoints: &[u32], out: &Path) -> Res
         )
     };
     let plot = line_plot(
-        &out.join("long_mission_per_keyframe.png"),
+        plot_path,
         "Back-end and verifier time per keyframe over a long mission",
         "minute of robot time",
         "ms per keyframe",

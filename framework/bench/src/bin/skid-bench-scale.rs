@@ -1,6 +1,6 @@
 //! `cargo xtask bench scale`: how SKiD's cost grows with the fleet (N = 2, 4, 8, 16 robots of the default
-//! pipeline on shorter routes as N grows) and with the mission (3 robots for 20 minutes of robot time,
-//! the back-end and verifier time per keyframe read at minutes 1, 5, 10 and 20). Parameters in
+//! pipeline on shorter routes as N grows) and with the mission (long missions of 3 robots for 20 minutes
+//! of robot time, the back-end and verifier time per keyframe read at minutes 1, 5, 10 and 20). Parameters in
 //! `configs/bench/scale.toml`; the method is `skid_bench::scale`'s.
 
 use anyhow::Context;
@@ -35,29 +35,33 @@ fn main() -> anyhow::Result<()> {
                 fleet_markdown(&rows, out)?
             ));
         }
-        let long = &settings.long;
-        if long.minutes > 0 {
+        for long in settings.long.iter().filter(|long| long.minutes > 0) {
             let mut sets = settings.sets.clone();
             sets.extend([
                 format!("run.robots={}", long.robots),
                 format!("run.max_scans={}", u64::from(long.minutes) * 600),
             ]);
             sets.extend(long.sets.iter().cloned());
-            let run = run_fleet("long", sets, &registry, out)?;
+            let run = run_fleet(&long.name, sets, &registry, out)?;
             let minutes = minute_rows(&run, long.minutes);
             for row in &minutes {
-                report.push(row)?;
+                let mut value = serde_json::to_value(row)?;
+                if let Some(fields) = value.as_object_mut() {
+                    fields.insert("mission".to_owned(), long.name.clone().into());
+                }
+                report.push(&value)?;
             }
             let fleet = fleet_row(&run);
             markdown.push_str(&format!(
-                "\n## Long mission\n\n{} robots, {} minutes of robot time ({} keyframes, {:.0} s wall, {} inter-robot loops, ATE α {} m); back-end and verifier time per new keyframe over the minute before each checkpoint, with the work behind it: the loop candidates the verifiers judged and the loops the back-ends' graphs gained or lost.\n\n{}",
+                "\n## Long mission `{}`\n\n{} robots, {} minutes of robot time ({} keyframes, {:.0} s wall, {} inter-robot loops, ATE α {} m); back-end and verifier time per new keyframe over the minute before each checkpoint, with the work behind it: the loop candidates the verifiers judged and the loops the back-ends' graphs gained or lost.\n\n{}",
+                long.name,
                 long.robots,
                 long.minutes,
                 fleet.keyframes,
                 fleet.wall_s,
                 fleet.inter_robot_loops,
                 fleet.ate_alpha_m.map_or_else(|| "–".to_owned(), |v| format!("{v:.3}")),
-                long_markdown(&minutes, &long.checkpoints_min, out)?
+                long_markdown(&minutes, &long.checkpoints_min, &out.join(format!("long_{}_per_keyframe.png", long.name)))?
             ));
         }
         Ok(markdown)
