@@ -41,6 +41,10 @@ pub struct PgoConfig {
     pub init: Initialization,
     /// Stop when a step lowers the cost by less than this fraction.
     pub relative_tolerance: f64,
+    /// With `robust = "gnc"`: a warm GNC run graduates new loops with only the poses within this many
+    /// factors of their ends free, then refines the whole graph once ([`crate::region`]); 0 = graduate
+    /// over the whole graph.
+    pub warm_region_hops: usize,
 }
 
 impl Default for PgoConfig {
@@ -52,6 +56,7 @@ impl Default for PgoConfig {
             distributed: true,
             init: Initialization::File,
             relative_tolerance: 1e-6,
+            warm_region_hops: 4,
         }
     }
 }
@@ -320,7 +325,15 @@ impl PgoBackend {
             let outcome = match self.memory.warm_start_threshold() {
                 Some(threshold) => {
                     let earlier = self.memory.earlier_labels(&subgraph.factor_loops);
-                    gnc_tls_warm(&mut subgraph.problem, &gnc, threshold, &earlier, &mut self.cache)?
+                    let hops = (self.config.warm_region_hops > 0).then_some(self.config.warm_region_hops);
+                    gnc_tls_warm(
+                        &mut subgraph.problem,
+                        &gnc,
+                        threshold,
+                        &earlier,
+                        hops,
+                        &mut self.cache,
+                    )?
                 }
                 None => {
                     let outcome = gnc_tls(&mut subgraph.problem, &gnc, &mut self.cache)?;

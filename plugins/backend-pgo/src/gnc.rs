@@ -42,6 +42,7 @@ use crate::error::PgoError;
 use crate::group::PoseGroup;
 use crate::lm::{FixedWeights, LmOutcome, LmSettings, StopReason, SystemCache, optimize};
 use crate::problem::Problem;
+use crate::region::region_around;
 
 /// Parameters of GNC-TLS.
 #[derive(Clone, Copy, Debug)]
@@ -111,6 +112,8 @@ pub struct GncOutcome {
     pub weights: Vec<f64>,
     /// The a-posteriori variance factor after the first run (`None` without redundancy or rescaling).
     pub variance_factor: Option<f64>,
+    /// In a warm run whose new loops graduated over a region of the graph: the poses free there.
+    pub region_poses: Option<usize>,
 }
 
 /// The GNC-TLS weight of a factor with squared norm `s` at control parameter `mu`.
@@ -182,11 +185,17 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
 /// graduate at `threshold_squared` (the earlier run's, variance factor included) from the current
 /// poses; then every loop is re-labelled against the nominal threshold until no label changes, as after
 /// a full run, so new evidence can still overturn an earlier label.
+///
+/// With `region_hops`, the new loops graduate with only the poses within that many factors of their
+/// ends free ([`crate::region`]), and the whole graph then takes their labels in one refinement. If a
+/// new loop ends there as an outlier, the warm run is done again over the whole graph from the same
+/// start, so that a loop is never rejected only because the region was too small to bend to it.
 pub fn gnc_tls_warm<G: PoseGroup<D>, const D: usize>(
     problem: &mut Problem<G, D>,
     settings: &GncSettings,
     threshold_squared: f64,
     earlier: &[Option<f64>],
+    region_hops: Option<usize>,
     cache: &mut SystemCache<D>,
 ) -> Result<GncOutcome, PgoError> {
     settings.check()?;
@@ -205,19 +214,81 @@ pub fn gnc_tls_warm<G: PoseGroup<D>, const D: usize>(
             }
         }
     }
-    let start = solve_start(problem, settings, cache, &weights, &free)?;
+    if let Some(hops) = region_hops {
+        let region = region_around(problem, &free, &weights, hops);
+        let free_poses = |fixed: &[bool]| fixed.iter().filter(|f| !**f).count();
+        let everywhere = free_poses(&problem.fixed);
+        let fixed_outside: Vec<bool> = problem
+            .fixed
+            .iter()
+            .zip(&region)
+            .map(|(f, inside)| *f || !inside)
+            .collect();
+        let inside = free_poses(&fixed_outside);
+        if inside < everywhere {
+            let (whole_fixed, start_poses) = (
+                std::mem::replace(&mut problem.fixed, fixed_outside),
+                problem.poses.clone(),
+            );
+            // The region's structure changes with every call: its own cache, the whole graph's kept.
+            let local = graduate_warm(
+                problem,
+                settings,
+                threshold_squared,
+                &weights,
+                &free,
+                &mut SystemCache::default(),
+            );
+            problem.fixed = whole_fixed;
+            let mut outcome = local?;
+            let rejected_new = free
+                .iter()
+                .zip(&outcome.weights)
+                .any(|(is_new, w)| *is_new && *w == 0.0);
+            if !rejected_new {
+                let whole = optimize(
+                    problem,
+                    &FixedWeights(&outcome.weights),
+                    &polish_settings(&settings.inner),
+                    cache,
+                )?;
+                outcome.total_iterations += whole.iterations;
+                outcome.factorizations += whole.factorizations;
+                outcome.last = whole;
+                outcome.region_poses = Some(inside);
+                readmit(problem, settings, &mut outcome, cache)?;
+                return Ok(outcome);
+            }
+            problem.poses = start_poses;
+        }
+    }
+    let mut outcome = graduate_warm(problem, settings, threshold_squared, &weights, &free, cache)?;
+    readmit(problem, settings, &mut outcome, cache)?;
+    Ok(outcome)
+}
+
+/// The graduated part of a warm run: the start's solve, then the loops marked `free` graduating at
+/// `threshold_squared` while the others keep the weight `weights` gives them.
+fn graduate_warm<G: PoseGroup<D>, const D: usize>(
+    problem: &mut Problem<G, D>,
+    settings: &GncSettings,
+    threshold_squared: f64,
+    weights: &[f64],
+    free: &[bool],
+    cache: &mut SystemCache<D>,
+) -> Result<GncOutcome, PgoError> {
+    let start = solve_start(problem, settings, cache, weights, free)?;
     let mut outcome = graduate_free(
         problem,
         settings,
         threshold_squared,
         cache,
-        weights,
-        &free,
+        weights.to_vec(),
+        free,
         &start,
     )?;
     outcome.total_iterations += start.solve.iterations;
     outcome.factorizations += start.solve.factorizations;
-    readmit(problem, settings, &mut outcome, cache)?;
     Ok(outcome)
 }
 
@@ -404,6 +475,7 @@ fn graduate_free<G: PoseGroup<D>, const D: usize>(
         factorizations,
         weights,
         variance_factor: None,
+        region_poses: None,
     })
 }
 
@@ -411,7 +483,7 @@ fn graduate_free<G: PoseGroup<D>, const D: usize>(
 mod tests {
     use nalgebra::{Isometry2, Matrix3, Vector2};
 
-    use super::{GncSettings, gnc_tls, tls_weight};
+    use super::{GncSettings, gnc_tls, gnc_tls_warm, strict_threshold, tls_weight};
     use crate::lm::SystemCache;
     use crate::problem::{Problem, RawEdge, Unanchored};
 
@@ -499,6 +571,67 @@ mod tests {
             ..GncSettings::default()
         };
         assert!(gnc_tls(&mut problem, &none, &mut SystemCache::default()).is_err());
+    }
+
+    #[test]
+    fn new_loops_graduated_over_their_region_end_where_the_whole_graph_does() {
+        // The laps' loops but one (and the wrong one) solved first; the one left out comes back as new,
+        // alone and then with the wrong loop.
+        let (mut problem, wrong) = two_laps();
+        let new_loop = wrong - 4;
+        let wrong_factor = problem.factors.remove(wrong);
+        let new_factor = problem.factors.remove(new_loop);
+        let settings = GncSettings::default();
+        let first = gnc_tls(&mut problem, &settings, &mut SystemCache::default()).expect("GNC runs");
+        let threshold = strict_threshold(&first, settings.threshold_squared);
+        let solved = problem.clone();
+        let earlier: Vec<Option<f64>> = problem
+            .factors
+            .iter()
+            .zip(&first.weights)
+            .map(|(f, w)| f.robust.then_some(*w))
+            .collect();
+        for (added, with_wrong) in [
+            (vec![new_factor.clone()], false),
+            (vec![new_factor, wrong_factor], true),
+        ] {
+            let mut grown = solved.clone();
+            grown.factors.extend(added.iter().cloned());
+            let mut labels = earlier.clone();
+            labels.extend(added.iter().map(|_| None));
+            let run = |hops| {
+                let mut problem = grown.clone();
+                let outcome = gnc_tls_warm(
+                    &mut problem,
+                    &settings,
+                    threshold,
+                    &labels,
+                    hops,
+                    &mut SystemCache::default(),
+                )
+                .expect("a warm run");
+                (problem, outcome)
+            };
+            let (whole, whole_outcome) = run(None);
+            let (local, local_outcome) = run(Some(1));
+            assert_eq!(
+                local_outcome.weights, whole_outcome.weights,
+                "wrong loop added: {with_wrong}"
+            );
+            assert_eq!(whole_outcome.weights.last() == Some(&0.0), with_wrong);
+            if with_wrong {
+                assert_eq!(
+                    local_outcome.region_poses, None,
+                    "a rejected new loop is judged over the whole graph"
+                );
+            } else {
+                let region = local_outcome.region_poses.expect("graduated over the region");
+                assert!(region < 10, "{region} poses free of {}", grown.poses.len() - 1);
+            }
+            for (a, b) in local.poses.iter().zip(&whole.poses) {
+                assert!((a.translation.vector - b.translation.vector).norm() < 1e-4);
+            }
+        }
     }
 
     #[test]

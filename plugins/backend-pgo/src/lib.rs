@@ -26,6 +26,7 @@ pub mod linear;
 pub mod lm;
 pub mod own_chain;
 pub mod problem;
+pub mod region;
 pub mod robust;
 pub mod se2;
 pub mod se3;

@@ -252,3 +252,45 @@ fn gnc_warm_started_from_the_last_solution_ends_where_a_full_run_does() {
         full_report.iterations
     );
 }
+
+#[test]
+fn a_warm_run_over_the_new_loops_region_ends_where_a_full_run_does() {
+    let gnc = |warm_region_hops| PgoConfig {
+        robust: skid_backend_pgo::g2o_file::RobustMode::Gnc,
+        warm_region_hops,
+        ..PgoConfig::default()
+    };
+    let first: Vec<LoopClosure> = (0..10)
+        .map(|k| inter_loop(k, 2 * (k as u32 % 9) + 1, 2 * (k as u32 % 9)))
+        .collect();
+    // Three true loops far apart along the chains: each region holds a few keyframes around its ends.
+    let second = [
+        inter_loop(20, 4, 5),
+        inter_loop(21, 12, 12),
+        inter_loop(22, 18, 17),
+    ];
+    let mut full = two_robot_backend(gnc(0));
+    for closure in first.iter().chain(&second) {
+        full.add_loop(closure.clone()).unwrap();
+    }
+    assert!(full.optimize(OptimizeBudget::default()).unwrap().converged);
+    for hops in [0, 1, 4] {
+        let mut incremental = two_robot_backend(gnc(hops));
+        for closure in &first {
+            incremental.add_loop(closure.clone()).unwrap();
+        }
+        assert!(incremental.optimize(OptimizeBudget::default()).unwrap().converged);
+        for closure in &second {
+            incremental.add_loop(closure.clone()).unwrap();
+        }
+        let warm = incremental.optimize(OptimizeBudget::default()).unwrap();
+        assert!(warm.converged, "{hops} hops: {warm:?}");
+        for (k, (a, b)) in all_poses(&incremental).iter().zip(all_poses(&full)).enumerate() {
+            let difference = (a.inverse() * b).translation.vector.norm();
+            assert!(
+                difference < 1e-3,
+                "{hops} hops, pose {k}: {difference} m from the full run"
+            );
+        }
+    }
+}
