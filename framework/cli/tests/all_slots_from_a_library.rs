@@ -12,17 +12,9 @@ fn workspace() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// The example plugin library. `skid-example-cdylib` is a dev-dependency of this crate, so cargo built
-/// its cdylib into the folder this test binary runs from, with this build's profile and features.
+/// The example plugin library, a dev-dependency of this crate.
 fn example_library() -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    let path = exe.parent().unwrap().join(format!(
-        "{}skid_example_cdylib{}",
-        std::env::consts::DLL_PREFIX,
-        std::env::consts::DLL_SUFFIX
-    ));
-    assert!(path.is_file(), "{} is missing", path.display());
-    path
+    skid_testkit::cdylib::dev_dependency_library("skid-example-cdylib")
 }
 
 /// A run's summary, with the given plugin library and slot choices.

@@ -12,6 +12,8 @@
 //! | back-end | [`backend::check_backend`] | closes a loop; removing it restores the odometry solution |
 //! | transport | [`transport::check_transport`] | a message round-trips to one peer and to all peers |
 //!
+//! Tests that load a plugin library find it with [`cdylib::dev_dependency_library`].
+//!
 //! For the slots that carry the heavy computation (descriptor, coarse, fine), [`threads`] checks that
 //! two instances running on two threads at once give what each gives alone.
 //!
@@ -22,6 +24,7 @@
 #![allow(clippy::expect_used, clippy::panic)]
 
 pub mod backend;
+pub mod cdylib;
 pub mod descriptor;
 pub mod odometry;
 pub mod registration;

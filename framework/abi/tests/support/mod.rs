@@ -12,25 +12,12 @@ pub fn workspace_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// The path of `package`'s plugin library. The package is a dev-dependency of this crate, so cargo
-/// built its cdylib into the folder this test binary runs from (`<target>/<profile>/deps/`), with this
-/// build's profile and features. Installs the global event capture first, so it sees every plugin event.
+/// The path of `package`'s plugin library, a dev-dependency of this crate
+/// ([`skid_testkit::cdylib::dev_dependency_library`]). Installs the global event capture first, so it
+/// sees every plugin event.
 pub fn library(package: &str) -> PathBuf {
     capture::global();
-    let exe = std::env::current_exe().expect("the test binary's path");
-    let deps = exe.parent().expect("the folder of the test binary");
-    let path = deps.join(format!(
-        "{}{}{}",
-        std::env::consts::DLL_PREFIX,
-        package.replace('-', "_"),
-        std::env::consts::DLL_SUFFIX
-    ));
-    assert!(
-        path.is_file(),
-        "{} is missing: {package} must be a dev-dependency of skid-abi",
-        path.display()
-    );
-    path
+    skid_testkit::cdylib::dev_dependency_library(package)
 }
 
 /// The folder of the test data: `SKID_DATA_DIR`, or `<workspace>/../shared/data`.

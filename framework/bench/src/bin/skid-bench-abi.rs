@@ -12,7 +12,6 @@
 //! (`point_to_plane_icp`) runs on the same pair for reference; it is another algorithm, not a peer.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
@@ -55,36 +54,19 @@ struct ReferenceRow {
     converged: bool,
 }
 
-/// The example plugin library next to this binary, built first when missing.
+/// The example plugin library. `skid-example-cdylib` is a dependency of this crate, so cargo built its
+/// shared library with this build's profile and features, into the `deps` folder beside this binary.
 fn example_library() -> Result<PathBuf> {
     let exe = std::env::current_exe().context("this binary's path")?;
     let profile_dir = exe.parent().context("a folder above this binary")?;
-    let file = format!(
+    let library = profile_dir.join("deps").join(format!(
         "{}skid_example_cdylib{}",
         std::env::consts::DLL_PREFIX,
         std::env::consts::DLL_SUFFIX
-    );
-    let library = profile_dir.join(&file);
-    let profile = match profile_dir.file_name().and_then(|name| name.to_str()) {
-        Some("debug") => "dev",
-        Some(other) => other,
-        None => bail!("cannot tell the cargo profile from {}", profile_dir.display()),
-    };
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let status = Command::new(cargo)
-        .args([
-            "build",
-            "--quiet",
-            "--profile",
-            profile,
-            "-p",
-            "skid-example-cdylib",
-        ])
-        .status()
-        .context("building the example plugin library with cargo")?;
-    if !status.success() || !library.exists() {
+    ));
+    if !library.is_file() {
         bail!(
-            "building skid-example-cdylib did not produce {}",
+            "{} is missing: build this benchmark with cargo, which builds its dependency skid-example-cdylib there",
             library.display()
         );
     }
