@@ -1,0 +1,10 @@
+//! The integration tests of `skid-bag`, in one test binary: the dependency graph is linked once, not once
+//! per file. Each module holds the tests of one subject; run one module with
+//! `cargo test -p skid-bag --test it <module>`.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test code fails loudly by design.
+
+mod generated;
+mod generated_bags;
+mod malformed;
+mod shared_bags;

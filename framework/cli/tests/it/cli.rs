@@ -1,0 +1,221 @@
+//! The `skid` binary end to end: plugin listing, configuration display and checking (including
+//! environment overrides set on the child process), and a short run on the real KITTI excerpt.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn skid(args: &[&str], envs: &[(&str, &str)]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_skid"));
+    command.current_dir(repo()).args(args).env_remove("RUST_LOG");
+    for (key, value) in envs {
+        command.env(key, value);
+    }
+    command.output().expect("skid runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn plugins_lists_every_slot_with_defaults() {
+    let output = skid(&["plugins"], &[]);
+    assert!(output.status.success());
+    let stdout = text(&output.stdout);
+    for expected in [
+        "[source]",
+        "kitti",
+        "cloud_dir",
+        "[odometry]",
+        "ground_truth",
+        "translation_noise_m = 0.0",
+        "[transport]",
+    ] {
+        assert!(stdout.contains(expected), "missing {expected} in:\n{stdout}");
+    }
+    let json = skid(&["plugins", "--json", "--slot", "odometry"], &[]);
+    let rows: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let names: Vec<&str> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|row| row["name"].as_str())
+        .collect();
+    assert_eq!(names, ["auto", "ground_truth", "kiss_icp", "lio"]);
+    assert_eq!(rows[1]["defaults"]["keyframe"]["distance_m"], 2.0);
+    // `auto` shows both candidates' defaults.
+    assert_eq!(rows[0]["defaults"]["kiss_icp"]["keyframe"]["distance_m"], 2.0);
+    assert!(rows[0]["defaults"]["lio"]["map_voxel_m"].is_number());
+    let bad = skid(&["plugins", "--slot", "odometryy"], &[]);
+    assert!(!bad.status.success());
+    assert!(text(&bad.stderr).contains("unknown slot `odometryy`"));
+}
+
+#[test]
+fn config_show_prints_the_merged_default_as_toml() {
+    let output = skid(
+        &["config", "show", "--set", "run.robots=2"],
+        &[("SKID_RUN__SEED", "99")],
+    );
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let shown: toml::Table = text(&output.stdout).parse().unwrap();
+    assert_eq!(shown["run"]["robots"].as_integer(), Some(2));
+    assert_eq!(shown["run"]["seed"].as_integer(), Some(99));
+    assert_eq!(shown["source"]["plugin"].as_str(), Some("sim"));
+    assert!(shown["odometry"]["kiss_icp"]["keyframe"].is_table());
+}
+
+#[test]
+fn config_check_reports_file_key_and_expected_keys() {
+    let bad = repo().join("framework/config/tests/bad/typo_key.toml");
+    let output = skid(&["config", "check", bad.to_str().unwrap()], &[]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(stderr.contains("typo_key.toml"), "{stderr}");
+    assert!(
+        stderr.contains("odometry.ground_truth.translation_noize_m"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("translation_noise_m"), "{stderr}");
+    let good = skid(&["config", "check", "configs/default.toml"], &[]);
+    assert!(good.status.success(), "{}", text(&good.stderr));
+}
+
+#[test]
+fn a_bad_environment_variable_is_named() {
+    let output = skid(&["config", "show"], &[("SKID_RUN__ROBOTZ", "2")]);
+    assert!(!output.status.success());
+    let stderr = text(&output.stderr);
+    assert!(
+        stderr.contains("SKID_RUN__ROBOTZ") && stderr.contains("robots"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn run_writes_trajectories_and_a_summary() {
+    let out = tempfile::tempdir().unwrap();
+    let out_arg = format!("run.output_dir={}", out.path().display());
+    let output = skid(
+        &[
+            "-q",
+            "run",
+            "--set",
+            &out_arg,
+            "--set",
+            "run.robots=2",
+            "--set",
+            "run.name=e2e",
+            // The real KITTI excerpt split between the two robots, through the default pipeline.
+            "--set",
+            "source.plugin=kitti",
+            "--set",
+            "source.kitti.split.enabled=true",
+            // Global registration of 120k-point KITTI keyframes costs seconds in a debug build; the
+            // release run and the registration benchmarks cover it.
+            "--set",
+            "coarse.plugin=none",
+        ],
+        &[],
+    );
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(summary["robots"].as_array().unwrap().len(), 2);
+    assert!(summary["robots"][0]["estimated_path_length_m"].as_f64().unwrap() > 1.0);
+    assert_eq!(summary["robots"][0]["scans_read"], 8);
+    assert_eq!(summary["robots"][0]["scans_skipped"], 0);
+    // `-q` keeps stderr to warnings: no human table.
+    assert!(
+        !text(&output.stderr).contains("outputs:"),
+        "{}",
+        text(&output.stderr)
+    );
+    let folder = out.path().join("e2e");
+    for robot in ["robot0", "robot1"] {
+        let trajectory = skid_io_read_tum(&folder.join(robot).join("trajectory.tum"));
+        assert_eq!(trajectory, 8, "{robot}: {trajectory} poses");
+    }
+    assert!(folder.join("config.toml").is_file());
+    assert!(folder.join("summary.json").is_file());
+    for file in [
+        "map.ply",
+        "map.png",
+        "trajectories.png",
+        "robot0/pose_graph.g2o",
+        "robot1/ground_truth.kitti",
+    ] {
+        assert!(folder.join(file).is_file(), "{file} missing");
+    }
+    let metrics: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(folder.join("metrics.json")).unwrap()).unwrap();
+    let robots = metrics["robots"].as_array().unwrap();
+    assert_eq!(robots.len(), 2);
+    for robot in robots {
+        let ate_m = robot["trajectory"]["ate_m"]["rmse"].as_f64().unwrap();
+        assert!(ate_m.is_finite() && ate_m >= 0.0, "{robot}");
+        // The straight KITTI excerpt cannot fix the alignment's roll: metrics.json says so.
+        assert_eq!(
+            robot["trajectory"]["alignment_conditioning"]["ill_conditioned"], true,
+            "{robot}"
+        );
+        assert!(
+            robot["trajectory"]["rpe_rotation_deg"]["rmse"].as_f64().is_some(),
+            "{robot}"
+        );
+        assert!(
+            robot["trajectory"]["ground_truth_path_length_m"]
+                .as_f64()
+                .unwrap()
+                > 1.0
+        );
+        // Every candidate ends in exactly one outcome.
+        let loops = &robot["loops"];
+        let count = |key: &str| loops[key].as_u64().unwrap();
+        let candidates = count("candidates_intra") + count("candidates_inter");
+        let outcomes: u64 = [
+            "repeated_pair",
+            "cloud_missing",
+            "awaiting_cloud",
+            "coarse_invalid",
+            "fine_not_converged",
+            "accepted_intra",
+            "accepted_inter",
+            "rejected",
+            "undecided",
+        ]
+        .iter()
+        .map(|key| count(key))
+        .sum();
+        assert_eq!(candidates, outcomes, "{loops}");
+    }
+    assert!(metrics["inter_robot_candidates"].as_u64().is_some(), "{metrics}");
+    // Robot 1 is β: either its α/β alignment error or the reason it has none.
+    assert!(robots[1]["alignment"].is_object() || robots[1]["alignment_unavailable"].is_string());
+    let g2o = std::fs::read_to_string(folder.join("robot0/pose_graph.g2o")).unwrap();
+    assert!(g2o.lines().any(|l| l.starts_with("VERTEX_SE3:QUAT")), "{g2o}");
+    // Every edge joins two vertices of the file.
+    let vertices: std::collections::BTreeSet<&str> = g2o
+        .lines()
+        .filter(|l| l.starts_with("VERTEX_SE3:QUAT"))
+        .filter_map(|l| l.split_whitespace().nth(1))
+        .collect();
+    for edge in g2o.lines().filter(|l| l.starts_with("EDGE_SE3:QUAT")) {
+        let ends: Vec<&str> = edge.split_whitespace().skip(1).take(2).collect();
+        assert!(
+            ends.iter().all(|id| vertices.contains(id)),
+            "dangling edge: {edge}"
+        );
+    }
+}
+
+fn skid_io_read_tum(path: &Path) -> usize {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .count()
+}

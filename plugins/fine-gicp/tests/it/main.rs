@@ -1,0 +1,9 @@
+//! The integration tests of `skid-fine-gicp`, in one test binary: the dependency graph is linked once, not once
+//! per file. Each module holds the tests of one subject; run one module with
+//! `cargo test -p skid-fine-gicp --test it <module>`.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test code fails loudly by design.
+
+mod conformance;
+mod degenerate;
+mod real_pair;
