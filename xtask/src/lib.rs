@@ -1,6 +1,7 @@
 //! Library half of xtask, so the tidy rules also run as a test (`cargo test -p xtask`).
 
 pub mod bench;
+pub mod doctests;
 pub mod header;
 pub mod imports;
 pub mod python;

@@ -1,9 +1,11 @@
 //! `cargo xtask`: the project's own automation.
 //!
-//! - `ci`: format check, clippy with warnings denied, and the test suite with `skid`'s `rerun` feature on
-//!   (what `.ci/run` calls), with `SKID_PYTHON` pointing at a venv of the pinned Python packages the tests
-//!   use as independent writers and readers;
-//! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code, no import loops);
+//! - `ci`: format check, the house rules, then one build of every test target with clippy linting the
+//!   workspace's crates as they compile (warnings denied), and the test suite, with `skid`'s `rerun`
+//!   feature on (what `.ci/run` calls), with `SKID_PYTHON` pointing at a venv of the pinned Python
+//!   packages the tests use as independent writers and readers; it ends with each phase's time;
+//! - `tidy`: the house rules (module docs, file length, no `unwrap` in library code, no import loops, no
+//!   documentation example in a crate that skips its doc tests);
 //! - `c-header [--check]`: the plugins' C header, generated from skid-abi with cbindgen (CI checks it);
 //! - `bench <profile>`: runs a benchmark profile in release mode, writing `target/bench/<profile>/`
 //!   (with `--config configs/bench/<profile>.toml` when that file exists);
@@ -25,7 +27,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Task {
-    /// Format check, clippy (warnings denied), tidy and the tests.
+    /// Format check, tidy, one build of the tests with clippy (warnings denied), and the tests.
     Ci,
     /// Check the house rules on every Rust file.
     Tidy,
@@ -79,7 +81,7 @@ fn cargo() -> Command {
 }
 
 /// Runs `command` to the end and says how long it took, so a CI log shows where its time goes.
-fn run(mut command: Command) -> Result<()> {
+fn run(mut command: Command) -> Result<f64> {
     eprintln!("xtask: running {command:?}");
     let started = Instant::now();
     let status = command
@@ -90,55 +92,101 @@ fn run(mut command: Command) -> Result<()> {
         bail!("{command:?} failed with {status} after {seconds:.0} s");
     }
     eprintln!("xtask: finished in {seconds:.0} s: {command:?}");
-    Ok(())
+    Ok(seconds)
+}
+
+/// The phases of `cargo xtask ci` and how long each took, printed at the end (also when one fails).
+#[derive(Default)]
+struct Phases {
+    done: Vec<(&'static str, f64)>,
+}
+
+impl Phases {
+    fn time<T>(&mut self, name: &'static str, phase: impl FnOnce() -> Result<T>) -> Result<T> {
+        let started = Instant::now();
+        let result = phase();
+        self.done.push((name, started.elapsed().as_secs_f64()));
+        result
+    }
+
+    fn print(&self, outcome: &str) {
+        eprintln!("xtask: ci {outcome}; phase times:");
+        for (name, seconds) in &self.done {
+            eprintln!("xtask:   {seconds:>7.0} s  {name}");
+        }
+        let total: f64 = self.done.iter().map(|(_, seconds)| seconds).sum();
+        eprintln!("xtask:   {total:>7.0} s  in all");
+    }
 }
 
 fn ci() -> Result<()> {
-    let started = Instant::now();
-    let mut fmt = cargo();
-    fmt.args(["fmt", "--all", "--", "--check"]);
-    run(fmt)?;
-    tidy()?;
-    xtask::header::run(&xtask::workspace_root(), true)?;
-    // Library and binary code: every warning denied, `unwrap` included.
-    let mut clippy = cargo();
-    clippy.args([
-        "clippy",
-        "--workspace",
-        "--features",
-        "skid/rerun",
-        "--lib",
-        "--bins",
-        "--examples",
-        "--",
-        "-D",
-        "warnings",
-    ]);
-    run(clippy)?;
-    // Tests: the same, except that tests (and their helper functions) may unwrap and expect.
-    let mut clippy_tests = cargo();
-    clippy_tests.args([
-        "clippy",
-        "--workspace",
-        "--features",
-        "skid/rerun",
-        "--tests",
-        "--benches",
-        "--",
-        "-D",
-        "warnings",
-    ]);
-    clippy_tests.args(["-A", "clippy::unwrap_used", "-A", "clippy::expect_used"]);
-    run(clippy_tests)?;
+    let mut phases = Phases::default();
+    let result = ci_phases(&mut phases);
+    phases.print(if result.is_ok() { "passed" } else { "failed" });
+    result
+}
+
+/// The tests, with clippy: one build serves both. clippy-driver compiles the workspace's own crates in
+/// place of rustc (`RUSTC_WORKSPACE_WRAPPER`, as `cargo clippy` does for `cargo check`), so every library,
+/// binary, example and test target is linted while it is built for the tests, with warnings denied
+/// (`unwrap` and `expect` are allowed in tests by `clippy.toml` and each test binary's root); the
+/// dependencies are built once, by rustc, instead of once more for a separate clippy pass.
+fn test_build(python: &std::path::Path) -> Result<Command> {
+    let mut command = cargo();
+    command.args(["test", "--workspace", "--features", "skid/rerun"]);
+    command.env(xtask::python::PYTHON_VAR, python);
+    command.env("RUSTC_WORKSPACE_WRAPPER", clippy_driver()?);
+    command.env("CLIPPY_ARGS", "-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__");
+    Ok(command)
+}
+
+/// clippy-driver from the toolchain cargo uses (`rustup component add clippy` installs it there).
+fn clippy_driver() -> Result<std::path::PathBuf> {
+    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".to_owned());
+    let output = Command::new(&rustc)
+        .args(["--print", "sysroot"])
+        .output()
+        .with_context(|| format!("running {rustc} --print sysroot"))?;
+    let sysroot = String::from_utf8_lossy(&output.stdout).trim().to_owned();
+    let driver = std::path::Path::new(&sysroot)
+        .join("bin")
+        .join(format!("clippy-driver{}", std::env::consts::EXE_SUFFIX));
+    if !driver.is_file() {
+        bail!(
+            "{} not found: install clippy with `rustup component add clippy`",
+            driver.display()
+        );
+    }
+    Ok(driver)
+}
+
+fn ci_phases(phases: &mut Phases) -> Result<()> {
+    phases.time("format check", || {
+        let mut fmt = cargo();
+        fmt.args(["fmt", "--all", "--", "--check"]);
+        run(fmt)
+    })?;
+    phases.time("tidy and the C header", || {
+        tidy()?;
+        xtask::header::run(&xtask::workspace_root(), true)
+    })?;
     // The bag tests write their fixtures with independent Python libraries (rosbags, mcap).
-    let python = xtask::python::ensure_python(&xtask::workspace_root())?;
+    let python = phases.time("Python venv", || {
+        xtask::python::ensure_python(&xtask::workspace_root())
+    })?;
     // With `skid`'s `rerun` feature (the Rerun SDK, off by default): one build whose features serve every
     // test, so the crates the SDK shares with the rest are not built twice.
-    let mut test = cargo();
-    test.args(["test", "--workspace", "--features", "skid/rerun"]);
-    test.env(xtask::python::PYTHON_VAR, &python);
-    run(test)?;
-    eprintln!("xtask: ci passed in {:.0} s", started.elapsed().as_secs_f64());
+    phases.time("build: tests and clippy", || {
+        let mut build = test_build(&python)?;
+        build.arg("--no-run");
+        run(build)
+    })?;
+    // Every test binary runs, so one failure does not hide the others.
+    phases.time("test run", || {
+        let mut test = test_build(&python)?;
+        test.arg("--no-fail-fast");
+        run(test)
+    })?;
     Ok(())
 }
 
@@ -146,6 +194,7 @@ fn tidy() -> Result<()> {
     let root = xtask::workspace_root();
     let mut violations: Vec<String> = xtask::tidy::check(&root)?
         .iter()
+        .chain(&xtask::doctests::check(&root)?)
         .map(ToString::to_string)
         .collect();
     for crate_dir in xtask::imports::CHECKED_CRATES {
@@ -207,5 +256,5 @@ fn bench(profile: &str, args: &[String]) -> Result<()> {
     }
     command.args(args);
     // `run` says how long the build and the profile took together.
-    run(command)
+    run(command).map(drop)
 }

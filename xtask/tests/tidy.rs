@@ -17,3 +17,10 @@ fn checked_crates_have_no_import_loops() {
         assert!(loops.is_empty(), "{crate_dir}: import loops {loops:?}");
     }
 }
+
+#[test]
+fn no_crate_that_skips_its_doc_tests_has_a_documentation_example() {
+    let violations = xtask::doctests::check(&xtask::workspace_root()).unwrap();
+    let report: Vec<String> = violations.iter().map(ToString::to_string).collect();
+    assert!(report.is_empty(), "{}", report.join("\n"));
+}
