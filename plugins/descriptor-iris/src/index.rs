@@ -19,7 +19,7 @@ use skid_core::{KeyframeId, PluginError, PluginResult};
 use crate::features::{Features, FilterBank, hamming_distance};
 use crate::fft::C32;
 use crate::image::row_key;
-use crate::keytree::{KeyTree, RebuildPolicy};
+use skid_keytree::{KeyTree, RebuildPolicy};
 
 /// Shape and search parameters of an index.
 #[derive(Clone, Copy, Debug)]
@@ -90,7 +90,7 @@ impl IrisIndex {
             shape,
             bank,
             entries: Vec::new(),
-            tree: KeyTree::new(shape.num_rings, policy),
+            tree: KeyTree::new("iris", shape.num_rings, policy),
         }
     }
 

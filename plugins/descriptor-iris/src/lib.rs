@@ -15,7 +15,6 @@ pub mod features;
 mod fft;
 pub mod image;
 pub mod index;
-mod keytree;
 
 impl skid_core::PluginParams for IrisConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
@@ -33,7 +32,7 @@ use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult
 pub use features::{Features, FilterBank};
 pub use image::IrisImage;
 pub use index::{IrisIndex, IrisShape};
-pub use keytree::{MAX_KEY_LEN, RebuildPolicy};
+pub use skid_keytree::{MAX_KEY_LEN, RebuildPolicy};
 
 /// The plugin's registry name and descriptor kind.
 pub const NAME: &str = "iris";

@@ -16,7 +16,7 @@ use skid_core::slots::{DescriptorBuf, DescriptorIndex, PlaceCandidate};
 use skid_core::{KeyframeId, PluginError, PluginResult};
 
 use crate::extract::{ring_key, sector_key};
-use crate::keytree::{KeyTree, RebuildPolicy};
+use skid_keytree::{KeyTree, RebuildPolicy};
 
 /// Shape and search parameters of an index.
 #[derive(Clone, Copy, Debug)]
@@ -139,7 +139,7 @@ impl ScanContextIndex {
             shape,
             ids: Vec::new(),
             contexts: Vec::new(),
-            tree: KeyTree::new(shape.num_rings, policy),
+            tree: KeyTree::new("scan_context", shape.num_rings, policy),
         }
     }
 

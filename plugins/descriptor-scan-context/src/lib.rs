@@ -9,7 +9,6 @@
 
 pub mod extract;
 pub mod index;
-mod keytree;
 
 impl skid_core::PluginParams for ScanContextConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
@@ -26,7 +25,7 @@ use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult
 
 pub use extract::ScanContextGrid;
 pub use index::{ScanContextIndex, ScanContextShape};
-pub use keytree::{MAX_KEY_LEN, RebuildPolicy};
+pub use skid_keytree::{MAX_KEY_LEN, RebuildPolicy};
 
 /// The plugin's registry name and descriptor kind.
 pub const NAME: &str = "scan_context";

@@ -14,7 +14,7 @@
 use skid_core::slots::{DescriptorBuf, DescriptorIndex, PlaceCandidate};
 use skid_core::{KeyframeId, PluginError, PluginResult};
 
-use crate::keytree::{KeyTree, RebuildPolicy};
+use skid_keytree::{KeyTree, RebuildPolicy};
 
 /// The index of one SOLiD configuration.
 pub struct SolidIndex {
@@ -33,7 +33,7 @@ impl SolidIndex {
             num_azimuth,
             ids: Vec::new(),
             azimuth: Vec::new(),
-            tree: KeyTree::new(num_range, policy),
+            tree: KeyTree::new("solid", num_range, policy),
         }
     }
 

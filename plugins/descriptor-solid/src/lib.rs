@@ -15,7 +15,6 @@
 mod angle;
 pub mod extract;
 pub mod index;
-mod keytree;
 mod voxel;
 pub mod wire;
 
@@ -36,7 +35,7 @@ use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult
 
 pub use extract::SolidParts;
 pub use index::SolidIndex;
-pub use keytree::{MAX_KEY_LEN, RebuildPolicy};
+pub use skid_keytree::{MAX_KEY_LEN, RebuildPolicy};
 pub use wire::Quantization;
 
 use extract::Binning;
