@@ -1,8 +1,8 @@
-//! The error every plugin method returns.
+//! The error every plugin method returns, and the error of a parameter table that does not fit its plugin.
 
 use std::path::PathBuf;
 
-use crate::registry::{ParamError, Slot};
+use crate::slot::Slot;
 
 /// Result alias for plugin methods.
 pub type PluginResult<T> = Result<T, PluginError>;
@@ -61,6 +61,26 @@ impl PluginError {
         Self::Io {
             path: path.into(),
             source,
+        }
+    }
+}
+
+/// A parameter table that does not fit the plugin's config type.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{}", self.describe())]
+pub struct ParamError {
+    /// Dotted path of the offending key, relative to the plugin's table (empty for the table itself).
+    pub path: String,
+    /// What serde said: the unknown field and the expected ones, or the type that was expected.
+    pub message: String,
+}
+
+impl ParamError {
+    fn describe(&self) -> String {
+        if self.path.is_empty() {
+            self.message.clone()
+        } else {
+            format!("key `{}`: {}", self.path, self.message)
         }
     }
 }

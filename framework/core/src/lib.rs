@@ -12,6 +12,7 @@ pub mod error;
 pub mod ids;
 pub mod pose;
 pub mod registry;
+pub mod slot;
 pub mod slots;
 
 pub use cloud::{Cloud, CloudView, Keyframe, Scan};

@@ -14,7 +14,20 @@
 
 use std::f64::consts::TAU;
 
-use crate::motion::Profile;
+use serde::{Deserialize, Serialize};
+
+/// The carrier: a ground vehicle, a multirotor, a trotting quadruped, a person carrying the sensor, or a
+/// ground base swinging its heading fast; the last three move their body as this module describes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Profile {
+    #[default]
+    Ground,
+    Aerial,
+    Legged,
+    Handheld,
+    FastTurn,
+}
 
 /// Offsets added to a control pose: height and sideways shift in metres, roll, pitch and yaw in radians.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

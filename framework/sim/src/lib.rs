@@ -31,9 +31,10 @@ pub mod sensor;
 mod source;
 pub mod trajectory;
 
+pub use gait::Profile;
 pub use imu::{ImuNoise, ImuSimulator};
 pub use mission::{CONVOY_GAP_M, Mission, plan_mission};
-pub use motion::{MotionSpec, Profile};
+pub use motion::MotionSpec;
 pub use route::{Overlap, Route, plan_route};
 pub use scan::{ScanNoise, simulate_sweep};
 pub use sensor::{SENSOR_NAMES, Sensor};

@@ -9,10 +9,9 @@
 //! their body motion ([`crate::gait`]) on a finer control spacing.
 
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
-use serde::{Deserialize, Serialize};
 use skid_core::Pose;
 
-use crate::gait;
+use crate::gait::{self, Profile};
 use crate::route::Route;
 use crate::trajectory::Trajectory;
 use crate::world::{World, WorldKind};
@@ -21,19 +20,6 @@ use crate::world::{World, WorldKind};
 pub const GRAVITY_MPS2: f64 = 9.80665;
 /// Spacing of the trajectory's control poses.
 pub const CONTROL_DT_S: f64 = 0.1;
-
-/// The carrier: a ground vehicle, a multirotor, a trotting quadruped, a person carrying the sensor, or a
-/// ground base swinging its heading fast (see [`crate::gait`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum Profile {
-    #[default]
-    Ground,
-    Aerial,
-    Legged,
-    Handheld,
-    FastTurn,
-}
 
 /// Motion parameters.
 #[derive(Clone, Copy, Debug)]

@@ -9,9 +9,10 @@ use skid_core::slots::Source;
 use skid_core::{PluginContext, PluginEntry, PluginError, PluginResult, Registry, RobotId, Scan};
 
 use crate::SimError;
+use crate::gait::Profile;
 use crate::imu::{ImuNoise, ImuSimulator};
 use crate::mission::{Mission, plan_mission};
-use crate::motion::{MotionSpec, Profile, trajectory};
+use crate::motion::{MotionSpec, trajectory};
 use crate::rng::combine;
 use crate::route::Route;
 use crate::scan::{ScanNoise, simulate_sweep};

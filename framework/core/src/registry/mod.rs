@@ -4,13 +4,14 @@
 pub mod check;
 pub mod docs;
 mod params;
-mod slot;
 mod table;
 
 pub use check::PluginParams;
 pub use docs::{ParamDocs, param_docs};
-pub use params::{ParamError, Params};
-pub use slot::Slot;
+pub use params::Params;
+
+pub use crate::error::ParamError;
+pub use crate::slot::Slot;
 pub use table::{PluginEntry, PluginInfo, SlotTable};
 
 use std::path::PathBuf;

@@ -5,30 +5,12 @@ use std::fmt;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
+use crate::error::ParamError;
+
 /// A plugin's parameter table, as it came out of the merged configuration.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Params {
     table: toml::Table,
-}
-
-/// A parameter table that does not fit the plugin's config type.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{}", self.describe())]
-pub struct ParamError {
-    /// Dotted path of the offending key, relative to the plugin's table (empty for the table itself).
-    pub path: String,
-    /// What serde said: the unknown field and the expected ones, or the type that was expected.
-    pub message: String,
-}
-
-impl ParamError {
-    fn describe(&self) -> String {
-        if self.path.is_empty() {
-            self.message.clone()
-        } else {
-            format!("key `{}`: {}", self.path, self.message)
-        }
-    }
 }
 
 impl Params {
