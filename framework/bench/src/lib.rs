@@ -12,6 +12,7 @@
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 pub mod bag_io;
+pub mod files;
 pub mod latency;
 pub mod memory;
 pub mod place_recognition;

@@ -57,24 +57,8 @@ impl std::fmt::Debug for SharedSession {
 impl SharedSession {
     /// Opens a peer session with the settings' endpoints (no multicast scouting: endpoints are explicit).
     pub fn open(settings: &LiveSettings) -> Result<Self, LiveError> {
-        let quoted = |values: &[String]| {
-            let items: Vec<String> = values
-                .iter()
-                .map(|v| format!("\"{}\"", v.replace('"', "")))
-                .collect();
-            format!("[{}]", items.join(","))
-        };
-        let mut config = zenoh::Config::default();
-        for (key, value) in [
-            ("mode", "\"peer\"".to_owned()),
-            ("connect/endpoints", quoted(&settings.connect)),
-            ("listen/endpoints", quoted(&settings.listen)),
-            ("scouting/multicast/enabled", "false".to_owned()),
-        ] {
-            config
-                .insert_json5(key, &value)
-                .map_err(|e| LiveError::Zenoh(format!("zenoh {key} = {value}: {e}")))?;
-        }
+        let config = skid_transport_zenoh::peer::peer_config(&settings.listen, &settings.connect, &[])
+            .map_err(LiveError::Zenoh)?;
         let session = zenoh::open(config)
             .wait()
             .map_err(|e| LiveError::Zenoh(format!("opening the zenoh session: {e}")))?;

@@ -78,7 +78,8 @@ pub(crate) fn plugin_context(config: &ResolvedConfig, robot: RobotId) -> PluginC
         threads: threads.max(1),
         seed: config.run.seed,
         output_dir: Some(crate::run_folder::run_folder(config).path().to_path_buf()),
-        source_provides_imu: false,
+        // Set once the source is built (`PluginContext::after_source`).
+        ..PluginContext::default()
     }
 }
 

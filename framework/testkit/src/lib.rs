@@ -12,7 +12,8 @@
 //! | back-end | [`backend::check_backend`] | closes a loop; removing it restores the odometry solution |
 //! | transport | [`transport::check_transport`] | a message round-trips to one peer and to all peers |
 //!
-//! Tests that load a plugin library find it with [`cdylib::dev_dependency_library`].
+//! Tests that load a plugin library find it with [`cdylib::dev_dependency_library`]; tests that open
+//! network endpoints take their ports from [`net::free_tcp_ports`].
 //!
 //! For the slots that carry the heavy computation (descriptor, coarse, fine), [`threads`] checks that
 //! two instances running on two threads at once give what each gives alone.
@@ -26,6 +27,7 @@
 pub mod backend;
 pub mod cdylib;
 pub mod descriptor;
+pub mod net;
 pub mod odometry;
 pub mod registration;
 pub mod scene;

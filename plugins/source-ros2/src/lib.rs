@@ -85,25 +85,8 @@ impl Ros2Config {
     }
 
     fn zenoh_config(&self) -> PluginResult<zenoh::Config> {
-        let quoted = |values: &[String]| {
-            let items: Vec<String> = values
-                .iter()
-                .map(|v| format!("\"{}\"", v.replace('"', "")))
-                .collect();
-            format!("[{}]", items.join(","))
-        };
-        let mut config = zenoh::Config::default();
-        for (key, value) in [
-            ("mode", "\"peer\"".to_owned()),
-            ("connect/endpoints", quoted(&self.connect)),
-            ("listen/endpoints", quoted(&self.listen)),
-            ("scouting/multicast/enabled", "false".to_owned()),
-        ] {
-            config
-                .insert_json5(key, &value)
-                .map_err(|e| PluginError::failed("ros2", format!("zenoh {key} = {value}: {e}")))?;
-        }
-        Ok(config)
+        skid_transport_zenoh::peer::peer_config(&self.listen, &self.connect, &[])
+            .map_err(|error| PluginError::failed("ros2", error))
     }
 }
 

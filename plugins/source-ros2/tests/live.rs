@@ -11,17 +11,9 @@ use skid_core::slots::Source;
 use skid_core::{PluginContext, RobotId};
 use skid_source_ros2::{Ros2Config, Ros2Source};
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 #[test]
 fn scans_arrive_live_from_an_rmw_zenoh_publisher() {
-    let port = free_port();
+    let port = skid_testkit::net::free_tcp_ports::<1>()[0];
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let config = Ros2Config {
         points_topic: "/robot{robot}/points".to_owned(),

@@ -8,6 +8,8 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 use skid_core::PluginError;
 
+use crate::peer::{json_string, peer_config};
+
 /// What a sender does when the network cannot keep up.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
@@ -82,16 +84,6 @@ impl Default for ZenohConfig {
             tls: TlsFiles::default(),
         }
     }
-}
-
-/// `value` as a JSON string.
-fn json_string(value: &str) -> String {
-    format!("\"{}\"", value.replace('\\', "\\\\").replace('"', "\\\""))
-}
-
-fn json_strings(values: &[String]) -> String {
-    let quoted: Vec<String> = values.iter().map(|v| json_string(v)).collect();
-    format!("[{}]", quoted.join(","))
 }
 
 impl ZenohConfig {
@@ -179,11 +171,7 @@ impl ZenohConfig {
     /// The zenoh configuration: peer mode, these endpoints, scouting off, the receive limit; with
     /// mutual TLS also the certificates and the access-control list of a fleet of `fleet_size` robots.
     pub fn to_zenoh(&self, fleet_size: u32) -> Result<zenoh::Config, PluginError> {
-        let mut config = zenoh::Config::default();
         let mut settings = vec![
-            ("mode", "\"peer\"".to_owned()),
-            ("listen/endpoints", json_strings(&self.listen)),
-            ("connect/endpoints", json_strings(&self.connect)),
             ("scouting/multicast/enabled", self.multicast_scouting.to_string()),
             ("scouting/gossip/enabled", "false".to_owned()),
             // Slack for zenoh's own framing over the payload limit.
@@ -196,12 +184,8 @@ impl ZenohConfig {
             settings.extend(self.tls_settings());
             settings.extend(crate::access::acl_settings(&self.key_prefix, fleet_size));
         }
-        for (key, value) in settings {
-            config
-                .insert_json5(key, &value)
-                .map_err(|error| PluginError::failed("zenoh", format!("config {key} = {value}: {error}")))?;
-        }
-        Ok(config)
+        peer_config(&self.listen, &self.connect, &settings)
+            .map_err(|error| PluginError::failed("zenoh", error))
     }
 }
 

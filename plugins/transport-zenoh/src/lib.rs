@@ -24,6 +24,7 @@
 pub mod access;
 pub mod certs;
 mod config;
+pub mod peer;
 pub mod refusals;
 mod transport;
 

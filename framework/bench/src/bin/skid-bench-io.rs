@@ -81,8 +81,7 @@ fn main() -> Result<()> {
     report.push(&row("ply binary_le", "write", &counts, &ply_w))?;
     report.push(&row("ply binary_le", "read", &counts, &ply_r))?;
 
-    let mut graphs = Vec::new();
-    collect_g2o(&data.join("pose_graph_benchmarks"), &mut graphs)?;
+    let graphs = skid_bench::files::files_with_extension(&data.join("pose_graph_benchmarks"), "g2o")?;
     let (mut lines, mut g2o_ms) = (vec![], vec![]);
     for graph in &graphs {
         let text_lines = std::fs::read_to_string(graph)?.lines().count();
@@ -112,17 +111,4 @@ fn main() -> Result<()> {
         )?)?;
     }
     bags.write(&args.out.join("bags"))
-}
-
-fn collect_g2o(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) -> Result<()> {
-    for entry in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
-        let path = entry?.path();
-        if path.is_dir() {
-            collect_g2o(&path, out)?;
-        } else if path.extension().is_some_and(|e| e == "g2o") {
-            out.push(path);
-        }
-    }
-    out.sort();
-    Ok(())
 }

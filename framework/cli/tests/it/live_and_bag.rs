@@ -7,14 +7,6 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn free_ports() -> [u16; 3] {
-    let listeners: Vec<std::net::TcpListener> = (0..3)
-        .map(|_| std::net::TcpListener::bind("127.0.0.1:0").unwrap())
-        .collect();
-    let ports: Vec<u16> = listeners.iter().map(|l| l.local_addr().unwrap().port()).collect();
-    [ports[0], ports[1], ports[2]]
-}
-
 fn wait(mut child: Child, what: &str, limit: Duration) -> String {
     let started = Instant::now();
     loop {
@@ -37,7 +29,7 @@ fn wait(mut child: Child, what: &str, limit: Duration) -> String {
 #[test]
 fn one_robot_live_over_rmw_zenoh_and_one_from_a_bag() {
     let out = tempfile::tempdir().unwrap();
-    let [live_port, port0, port1] = free_ports();
+    let [live_port, port0, port1] = skid_testkit::net::free_tcp_ports::<3>();
     let endpoint = |port: u16| format!("\"tcp/127.0.0.1:{port}\"");
     let data = |relative: &str| skid_io::data_path(relative).unwrap().display().to_string();
     let robot = |index: usize, source: &[String]| {

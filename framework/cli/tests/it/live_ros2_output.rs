@@ -13,18 +13,10 @@ fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 #[test]
 fn an_independent_listener_decodes_every_robots_live_topics() {
     let out = tempfile::tempdir().unwrap();
-    let port = free_port();
+    let port = skid_testkit::net::free_tcp_ports::<1>()[0];
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let summary_path = out.path().join("heard.json");
     let python = std::env::var("SKID_PYTHON").unwrap_or_else(|_| "python3".to_owned());

@@ -38,15 +38,6 @@ fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// Three TCP ports free right now on 127.0.0.1.
-fn free_ports() -> [u16; 3] {
-    let listeners: Vec<std::net::TcpListener> = (0..3)
-        .map(|_| std::net::TcpListener::bind("127.0.0.1:0").unwrap())
-        .collect();
-    let ports: Vec<u16> = listeners.iter().map(|l| l.local_addr().unwrap().port()).collect();
-    [ports[0], ports[1], ports[2]]
-}
-
 struct Fleet {
     out: tempfile::TempDir,
     ports: [u16; 3],
@@ -69,7 +60,7 @@ impl Fleet {
         assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
         Self {
             out,
-            ports: free_ports(),
+            ports: skid_testkit::net::free_tcp_ports::<3>(),
             prefix: format!("skidtest/{name}/{}", std::process::id()),
             certs,
             robots,

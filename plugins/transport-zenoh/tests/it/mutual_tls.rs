@@ -4,7 +4,7 @@
 //! another robot's id has every such message dropped on arrival and counted; a peer that floods fills
 //! only its own receive budget.
 
-use std::net::TcpListener;
+use skid_testkit::net::free_tcp_ports;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -13,14 +13,6 @@ use skid_core::slots::{Destination, Transport};
 use skid_transport_zenoh::*;
 
 const FLEET_SIZE: u32 = 3;
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 fn endpoint(port: u16) -> String {
     format!("tls/127.0.0.1:{port}")
@@ -80,7 +72,10 @@ fn fleet_robots_talk_and_intruders_are_refused_and_counted() {
     let fleet = certificates(&folder.path().join("fleet"));
     let foreign = certificates(&folder.path().join("foreign"));
     let prefix = format!("skid-tls-test-{}", std::process::id());
-    let (port_a, port_b) = (free_port(), free_port());
+    let (port_a, port_b) = {
+        let [a, b] = free_tcp_ports::<2>();
+        (a, b)
+    };
     let mut a =
         ZenohTransport::open(RobotId(0), config(&fleet, 0, port_a, &[], &prefix), FLEET_SIZE).unwrap();
     let mut b = ZenohTransport::open(
@@ -96,14 +91,14 @@ fn fleet_robots_talk_and_intruders_are_refused_and_counted() {
     // A robot certificate signed by another CA: the TLS handshake fails, so it is never a peer.
     let mut stranger = ZenohTransport::open(
         RobotId(2),
-        config(&foreign, 2, free_port(), &[port_a], &prefix),
+        config(&foreign, 2, free_tcp_ports::<1>()[0], &[port_a], &prefix),
         FLEET_SIZE,
     )
     .unwrap();
     // Robot 2's genuine certificate, used to publish as robot 1: the access control drops it.
     let mut impostor = ZenohTransport::open(
         RobotId(1),
-        config(&fleet, 2, free_port(), &[port_a], &prefix),
+        config(&fleet, 2, free_tcp_ports::<1>()[0], &[port_a], &prefix),
         FLEET_SIZE,
     )
     .unwrap();
@@ -143,7 +138,7 @@ fn a_flooding_peer_fills_only_its_own_budget() {
     let folder = tempfile::tempdir().unwrap();
     let fleet = certificates(folder.path());
     let prefix = format!("skid-flood-test-{}", std::process::id());
-    let ports = [free_port(), free_port(), free_port()];
+    let ports = free_tcp_ports::<3>();
     let mut receiver_config = config(&fleet, 0, ports[0], &[], &prefix);
     receiver_config.max_message_bytes = 64 << 10;
     receiver_config.max_queued_bytes = 1 << 20;

@@ -2,9 +2,9 @@
 //! robots as separate OS processes (this test binary re-run in a child role) exchanging protocol
 //! messages, with one robot killed and restarted while the other two keep running.
 
+use skid_testkit::net::free_tcp_ports;
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader};
-use std::net::TcpListener;
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
@@ -13,15 +13,6 @@ use skid_core::slots::{Destination, Transport};
 use skid_core::{Params, PluginContext, Registry, RobotId};
 use skid_protocol::*;
 use skid_transport_zenoh::*;
-
-/// A port that was free a moment ago.
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 fn endpoint(port: u16) -> String {
     format!("tcp/127.0.0.1:{port}")
@@ -43,7 +34,10 @@ const FLEET_SIZE: u32 = 3;
 
 #[test]
 fn conformance_over_localhost() {
-    let (pa, pb) = (free_port(), free_port());
+    let (pa, pb) = {
+        let [a, b] = free_tcp_ports::<2>();
+        (a, b)
+    };
     let prefix = format!("skid-test-{}", std::process::id());
     let mut a = ZenohTransport::open(RobotId(0), config(pa, &[], &prefix), FLEET_SIZE).unwrap();
     let mut b = ZenohTransport::open(RobotId(1), config(pb, &[pa], &prefix), FLEET_SIZE).unwrap();
@@ -82,7 +76,7 @@ fn registry_and_config_checks() {
             .create("zenoh", &wildcard, &PluginContext::default())
             .is_err()
     );
-    let port = free_port();
+    let port = free_tcp_ports::<1>()[0];
     let plain_unasked = Params::from_toml_str(&format!("listen = [\"{}\"]", endpoint(port))).unwrap();
     let error = registry
         .transport
@@ -276,7 +270,7 @@ impl Drop for RobotProcess {
 
 #[test]
 fn three_robot_processes_find_each_other_and_survive_a_restart() {
-    let ports = [free_port(), free_port(), free_port()];
+    let ports = free_tcp_ports::<3>();
     let prefix = format!("skid-procs-{}", std::process::id());
     let mut robots: Vec<RobotProcess> = (0..3).map(|r| RobotProcess::spawn(r, &ports, &prefix)).collect();
     // Each robot's descriptors reach both other processes.

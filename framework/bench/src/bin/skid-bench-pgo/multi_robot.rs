@@ -8,7 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use serde::Serialize;
 use skid_bench::Report;
 
@@ -33,30 +33,16 @@ const EXPECTED: [(&str, usize); 5] = [
     ("spoiled/simulation/example_8robots", 112),
 ];
 
-/// Every folder under `root` that holds `.g2o` files, sorted.
-fn set_folders(root: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
-    let mut holds_g2o = false;
-    for entry in std::fs::read_dir(root).with_context(|| format!("listing {}", root.display()))? {
-        let path = entry?.path();
-        if path.is_dir() {
-            set_folders(&path, out)?;
-        } else if path.extension().is_some_and(|ext| ext == "g2o") {
-            holds_g2o = true;
-        }
-    }
-    if holds_g2o {
-        out.push(root.to_owned());
-    }
-    out.sort();
-    Ok(())
-}
-
 /// The multi-robot table.
 pub fn rows(report: &mut Report) -> Result<()> {
     let root = skid_io::data_dir()
         .join("multi_robot_pose_graphs/pcm_robust_distributed_mapper/pairwise_consistency_maximization");
-    let mut folders = Vec::new();
-    set_folders(&root, &mut folders)?;
+    // Every folder that holds g2o files is one set.
+    let mut folders: Vec<PathBuf> = skid_bench::files::files_with_extension(&root, "g2o")?
+        .iter()
+        .filter_map(|file| file.parent().map(Path::to_path_buf))
+        .collect();
+    folders.dedup();
     for folder in folders {
         let set = folder
             .strip_prefix(&root)
