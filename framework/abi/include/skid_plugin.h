@@ -18,7 +18,7 @@
 #endif
 
 /* The constants a plugin's library declaration must carry. */
-#define SKID_ABI_VERSION 2u
+#define SKID_ABI_VERSION 3u
 #define SKID_LAYOUT_FINGERPRINT 0x06949ccd28bc5544ull
 #define SKID_FRAMEWORK_VERSION "0.1.0"
 #define SKID_ENTRY_SYMBOL "skid_plugin_entry"
@@ -328,6 +328,23 @@ typedef SkidStatus (*SkidAddEdgeFn)(SkidHandle handle,
                                     struct SkidErrorBuf *error);
 
 /**
+ * A prior on one keyframe: its pose in the world frame and the 6×6 information (row-major, translation
+ * first) of the residual `Log(Z⁻¹ T)`, GTSAM's `PriorFactor`.
+ */
+typedef struct SkidAbiPrior {
+  struct SkidAbiKeyframeId id;
+  struct SkidAbiTransform world_from_sensor;
+  double information[36];
+} SkidAbiPrior;
+
+/**
+ * Adds a prior on a known keyframe.
+ */
+typedef SkidStatus (*SkidAddPriorFn)(SkidHandle handle,
+                                     const struct SkidAbiPrior *prior,
+                                     struct SkidErrorBuf *error);
+
+/**
  * Removes a loop closure that was retracted; an unknown id is an error.
  */
 typedef SkidStatus (*SkidRemoveLoopFn)(SkidHandle handle, uint64_t id, struct SkidErrorBuf *error);
@@ -397,6 +414,15 @@ typedef SkidStatus (*SkidBackendListsFn)(SkidHandle handle,
                                          struct SkidErrorBuf *error);
 
 /**
+ * The ids of the loops in the graph that the last robust solve gave no weight (its outliers), lent
+ * until the next call on the instance; none for a back-end that does not judge loops.
+ */
+typedef SkidStatus (*SkidRejectedLoopsFn)(SkidHandle handle,
+                                          const uint64_t **out_ids,
+                                          size_t *out_count,
+                                          struct SkidErrorBuf *error);
+
+/**
  * Drops an instance; the handle is invalid afterwards whatever the status.
  */
 typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
@@ -408,11 +434,13 @@ typedef struct SkidBackendVTable {
   SkidCreateFn create;
   SkidAddKeyframeFn add_keyframe;
   SkidAddEdgeFn add_edge;
+  SkidAddPriorFn add_prior;
   SkidRemoveLoopFn remove_loop;
   SkidOptimizeFn optimize;
   SkidBackendPoseFn pose;
   SkidBackendOdometryFn odometry_between;
   SkidBackendListsFn lists;
+  SkidRejectedLoopsFn rejected_loops;
   SkidDestroyFn destroy;
 } SkidBackendVTable;
 

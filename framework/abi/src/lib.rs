@@ -27,6 +27,8 @@
 pub mod ffi;
 pub mod plugin;
 
+#[cfg(feature = "core")]
+pub mod graph;
 #[cfg(feature = "host")]
 pub mod host;
 #[cfg(feature = "nalgebra")]
@@ -43,7 +45,7 @@ pub use plugin::{
 pub use host::{AbiError, LoadedLibrary, LoadedPlugin, load_into, load_library};
 
 /// Version of the C ABI. Bump it on any change to the declaration or a function table.
-pub const ABI_VERSION: u32 = 2;
+pub const ABI_VERSION: u32 = 3;
 
 /// The version of this crate, which a plugin and the host must agree on (same major, and same minor
 /// while the major is 0).

@@ -147,4 +147,28 @@ pub fn check_backend(backend: &mut dyn Backend) {
         restored_difference_m < 1e-3,
         "removing the loop restores the odometry solution ({restored_difference_m} m)"
     );
+
+    // Priors at both ends of the square, where the ground truth puts them, pull the drifted chain in as
+    // the loop did; a prior on a keyframe the graph lacks is refused.
+    let tight = Information::identity() * 1e4;
+    assert!(
+        backend
+            .add_prior(KeyframeId::new(0, 500), Pose::identity(), tight)
+            .is_err(),
+        "a prior on an unknown keyframe is an error"
+    );
+    for index in [0, count - 1] {
+        backend
+            .add_prior(KeyframeId::new(0, index), square_truth(index), tight)
+            .expect("add prior");
+    }
+    backend
+        .optimize(OptimizeBudget::default())
+        .expect("optimise with the priors");
+    let anchored = backend.graph().pose(last).expect("last pose");
+    let (anchored_error_m, _) = pose_error(&square_truth(count - 1), &anchored);
+    assert!(
+        anchored_error_m < 0.05 && anchored_error_m < drift_error_m * 0.25,
+        "the priors hold the end where it is: {drift_error_m:.3} m -> {anchored_error_m:.3} m"
+    );
 }

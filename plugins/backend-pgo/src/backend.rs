@@ -16,7 +16,7 @@ use skid_core::slots::{
 use skid_core::{KeyframeId, LoopId, PluginContext, PluginError, PluginResult, Pose, RobotId};
 
 use crate::chain::{Chains, Step};
-use crate::distributed::{Scope, active_loops, align_peers, build, write_back};
+use crate::distributed::{Prior, Scope, active_loops, align_peers, build, write_back};
 use crate::g2o_file::{Initialization, RobustMode};
 use crate::gnc::{GncSettings, gnc_tls, gnc_tls_warm, strict_threshold};
 use crate::group::PoseGroup;
@@ -68,6 +68,7 @@ pub struct PgoBackend {
     poses: BTreeMap<KeyframeId, Pose>,
     chains: Chains,
     loops: BTreeMap<LoopId, LoopClosure>,
+    priors: BTreeMap<KeyframeId, Prior>,
     aligned: BTreeSet<RobotId>,
     cache: SystemCache<6>,
     kernel: Kernel,
@@ -114,6 +115,7 @@ impl PgoBackend {
             poses: BTreeMap::new(),
             chains: Chains::default(),
             loops: BTreeMap::new(),
+            priors: BTreeMap::new(),
             aligned: BTreeSet::from([context.robot]),
             cache: SystemCache::default(),
             kernel,
@@ -217,6 +219,37 @@ impl Backend for PgoBackend {
         Ok(())
     }
 
+    fn add_prior(
+        &mut self,
+        id: KeyframeId,
+        world_from_sensor: Pose,
+        information: skid_core::Information,
+    ) -> PluginResult<()> {
+        if !self.poses.contains_key(&id) {
+            return Err(invalid(format!("prior on {id}: the keyframe is unknown")));
+        }
+        if self.priors.contains_key(&id) {
+            return Err(invalid(format!("prior on {id} was added before")));
+        }
+        if !finite_pose(&world_from_sensor) {
+            return Err(invalid(format!("prior on {id}: the pose is not finite")));
+        }
+        let information =
+            check_information(&information).map_err(|reason| invalid(format!("prior on {id}: {reason}")))?;
+        if id.robot != self.own {
+            self.memory.loop_touches_peer(id.robot, id.index);
+        }
+        self.memory.changed = true;
+        self.priors.insert(
+            id,
+            Prior {
+                world_from_sensor,
+                information,
+            },
+        );
+        Ok(())
+    }
+
     fn add_loop(&mut self, closure: LoopClosure) -> PluginResult<()> {
         if self.loops.contains_key(&closure.id) {
             return Err(invalid(format!("{} was added before", closure.id)));
@@ -267,9 +300,15 @@ impl Backend for PgoBackend {
                 self.aligned.insert(first.robot);
             }
         }
+        // Robots with priors are in the priors' world already, and so is the frame of this robot's (or,
+        // centralised, of any) robot with a prior: no loop moves them there.
+        let in_prior_world = |robot: RobotId| scope == Scope::Full || robot == self.own;
+        if self.priors.keys().any(|id| in_prior_world(id.robot)) {
+            self.aligned.extend(self.priors.keys().map(|id| id.robot));
+        }
         align_peers(&mut self.poses, &mut self.aligned, &loops);
         let robust = self.config.robust != RobustMode::None;
-        let mut subgraph = build(&self.poses, &self.chains, &loops, scope, robust)?;
+        let mut subgraph = build(&self.poses, &self.chains, &loops, &self.priors, scope, robust)?;
         // Nothing the last converged solution does not account for: it is still the optimum (see
         // `crate::incremental`); only the peers' keyframes are placed again below.
         let solved = self.memory.changed;
@@ -294,6 +333,17 @@ impl Backend for PgoBackend {
 
     fn graph(&self) -> &dyn GraphView {
         self
+    }
+
+    fn rejected_loops(&self) -> Vec<LoopId> {
+        if self.config.robust != RobustMode::Gnc {
+            return Vec::new();
+        }
+        self.loops
+            .keys()
+            .filter(|id| self.memory.labels.get(id).is_some_and(|&label| label < 0.5))
+            .copied()
+            .collect()
     }
 }
 

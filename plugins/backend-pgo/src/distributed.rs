@@ -28,7 +28,17 @@ pub enum Scope {
     Distributed { own: RobotId },
 }
 
-/// The problem built for one optimisation, with the keyframe of each pose.
+/// A prior on a keyframe: its pose in the world frame and the information of the residual
+/// `Log(Z⁻¹ T)`, translation first. In the problem it is a factor from the world origin, one extra pose
+/// held fixed, to the keyframe (GTSAM's `PriorFactor` has the same residual).
+#[derive(Clone, Copy, Debug)]
+pub struct Prior {
+    pub world_from_sensor: Pose,
+    pub information: nalgebra::Matrix6<f64>,
+}
+
+/// The problem built for one optimisation, with the keyframe of each pose (the world origin, when
+/// priors need it, is the problem's last pose and has no keyframe).
 pub struct Subgraph {
     pub problem: Problem<Isometry3<f64>, 6>,
     pub keyframes: Vec<KeyframeId>,
@@ -97,6 +107,7 @@ pub fn build(
     poses: &BTreeMap<KeyframeId, Pose>,
     chains: &Chains,
     loops: &[&LoopClosure],
+    priors: &BTreeMap<KeyframeId, Prior>,
     scope: Scope,
     loop_is_robust: bool,
 ) -> Result<Subgraph, PgoError> {
@@ -109,10 +120,15 @@ pub fn build(
             Vec::new()
         }
         Scope::Distributed { own } => {
+            let anchored: Vec<u32> = priors
+                .keys()
+                .filter(|id| id.robot == own)
+                .map(|id| id.index)
+                .collect();
             let kept = chains
                 .robots
                 .get(&own)
-                .map(|chain| own_chain::kept_keyframes(chain, own, loops))
+                .map(|chain| own_chain::kept_keyframes(chain, own, loops, &anchored))
                 .unwrap_or_default();
             included.extend(
                 kept.iter()
@@ -128,6 +144,14 @@ pub fn build(
             if !included.contains(&id) {
                 touched.entry(id.robot).or_default().insert(id.index);
             }
+        }
+    }
+    // A peer that takes part keeps its priors' keyframes too.
+    for id in priors.keys() {
+        if !included.contains(id)
+            && let Some(indices) = touched.get_mut(&id.robot)
+        {
+            indices.insert(id.index);
         }
     }
     for (robot, indices) in &touched {
@@ -203,6 +227,20 @@ pub fn build(
             }
         }
     }
+    // Priors: factors from the world origin, the pose after the keyframes.
+    let origin = keyframes.len();
+    for (id, prior) in priors {
+        if let Some(&j) = position.get(id) {
+            edges.push(RawEdge {
+                i: origin,
+                j,
+                measured: prior.world_from_sensor,
+                information: prior.information,
+                robust: false,
+            });
+        }
+    }
+    let with_origin = edges.iter().any(|edge| edge.i == origin);
     let mut factor_loops = vec![None; edges.len()];
     for l in loops {
         if let (Some(&i), Some(&j)) = (position.get(&l.target), position.get(&l.source)) {
@@ -217,18 +255,26 @@ pub fn build(
         }
     }
     let mut fixed = vec![false; keyframes.len()];
-    // Gauge: the own robot's first keyframe (or the first keyframe of all for a full solve).
-    let anchor = match scope {
-        Scope::Full => keyframes.first().copied(),
-        Scope::Distributed { own } => keyframes.iter().find(|id| id.robot == own).copied(),
-    };
-    if let Some(anchor) = anchor.and_then(|a| position.get(&a)) {
-        fixed[*anchor] = true;
+    let mut initial: Vec<Pose> = keyframes.iter().map(|id| poses[id]).collect();
+    if with_origin {
+        // Gauge: the world the priors are given in.
+        fixed.push(true);
+        initial.push(Pose::identity());
+    } else {
+        // Gauge: the own robot's first keyframe (or the first keyframe of all for a full solve).
+        let anchor = match scope {
+            Scope::Full => keyframes.first().copied(),
+            Scope::Distributed { own } => keyframes.iter().find(|id| id.robot == own).copied(),
+        };
+        if let Some(anchor) = anchor.and_then(|a| position.get(&a)) {
+            fixed[*anchor] = true;
+        }
     }
-    let initial: Vec<Pose> = keyframes.iter().map(|id| poses[id]).collect();
     let names = keyframes.clone();
     let problem = Problem::new(initial, fixed, &edges, Unanchored::AnchorFirst, &|k| {
-        names[k].to_string()
+        names
+            .get(k)
+            .map_or_else(|| "the world origin".to_owned(), ToString::to_string)
     })?;
     Ok(Subgraph {
         problem,

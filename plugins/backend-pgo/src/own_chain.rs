@@ -23,14 +23,16 @@ use skid_core::{KeyframeId, Pose, RobotId};
 use crate::chain::Chain;
 use crate::se3::{se3_exp, se3_log};
 
-/// The own keyframes that keep a pose variable, in index order: every one a loop touches and the first
-/// and last of every segment.
-pub fn kept_keyframes(chain: &Chain, own: RobotId, loops: &[&LoopClosure]) -> Vec<u32> {
+/// The own keyframes that keep a pose variable, in index order: every one a loop touches, every one in
+/// `anchored` (keyframes with a prior), and the first and last of every segment.
+pub fn kept_keyframes(chain: &Chain, own: RobotId, loops: &[&LoopClosure], anchored: &[u32]) -> Vec<u32> {
     let mut kept: Vec<u32> = loops
         .iter()
         .flat_map(|l| [l.target, l.source])
-        .filter(|id| id.robot == own && chain.segment(id.index).is_some())
+        .filter(|id| id.robot == own)
         .map(|id| id.index)
+        .chain(anchored.iter().copied())
+        .filter(|&index| chain.segment(index).is_some())
         .collect();
     let mut previous: Option<(u32, usize)> = None;
     for index in chain.indices() {
@@ -147,11 +149,11 @@ mod tests {
             },
         );
         assert_eq!(
-            kept_keyframes(&chain, own, &[&touch, &elsewhere]),
+            kept_keyframes(&chain, own, &[&touch, &elsewhere], &[]),
             vec![0, 6, 9, 10, 19]
         );
         assert_eq!(
-            kept_keyframes(&Chain::default(), own, &[&touch]),
+            kept_keyframes(&Chain::default(), own, &[&touch], &[]),
             Vec::<u32>::new()
         );
     }

@@ -17,7 +17,6 @@
 //! [`skid_abi::export_plugins!`] generate the C side.
 
 pub mod chi_squared;
-mod convert;
 pub mod gicp;
 pub mod kiss;
 pub mod kitti;
@@ -37,7 +36,8 @@ pub(crate) fn plugin_context(context: &InstanceContext) -> PluginContext {
         threads: context.threads,
         seed: context.seed,
         output_dir: context.output_dir.as_ref().map(Into::into),
-        source_provides_imu: false,
+        // The source's IMU does not cross the ABI: a wrapped built-in is told there is none.
+        ..PluginContext::default()
     }
 }
 

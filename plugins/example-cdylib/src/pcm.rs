@@ -10,7 +10,7 @@ use skid_core::{CloudView, Information, KeyframeId, Pose};
 use skid_msgs::Point;
 use skid_verifier_pcm::{PcmConfig, PcmVerifier};
 
-use crate::convert::{abi_id, closure, host_id};
+use skid_abi::graph::{abi_id, host_id, loop_from_abi};
 
 /// The built-in verifier's defaults as TOML; a unit test keeps them equal to `PcmConfig::default()`.
 const DEFAULT_CONFIG: &str = include_str!("pcm_defaults.toml");
@@ -48,7 +48,7 @@ impl GraphView for LentGraph<'_, '_> {
         self.access
             .loops()
             .iter()
-            .filter_map(|lent| closure(lent).ok())
+            .filter_map(|lent| loop_from_abi(lent).ok())
             .collect()
     }
 }
@@ -73,7 +73,7 @@ impl VerifierPlugin for PcmCdylib {
         graph: &GraphAccess<'_>,
     ) -> Result<VerdictOutcome, String> {
         let candidate = LoopCandidate {
-            closure: closure(candidate)?,
+            closure: loop_from_abi(candidate)?,
             target_cloud: CloudView::new(target_cloud),
             source_cloud: CloudView::new(source_cloud),
         };

@@ -1,14 +1,13 @@
 //! `pgo_cdylib`: SKiD's own pose-graph back-end (`skid-backend-pgo`: Levenberg-Marquardt on SE(3) with
 //! the robust kernels and GNC) exported through the C ABI's back-end slot.
 
-use skid_abi::ffi::{AbiKeyframeId, AbiLoop, AbiOptimizeReport, AbiRelativePose};
+use skid_abi::ffi::{AbiKeyframeId, AbiLoop, AbiOptimizeReport, AbiPrior, AbiRelativePose};
+use skid_abi::graph::{abi_id, abi_loop, host_id, loop_from_abi, prior_from_abi, row_major};
 use skid_abi::transform::{abi_from_pose, pose_from_abi};
 use skid_abi::{AbiTransform, BackendPlugin, ConfigError, InstanceContext, parse_config};
 use skid_backend_pgo::{PgoBackend, PgoConfig};
 use skid_core::LoopId;
 use skid_core::slots::{Backend, OdometryMeasurement, OptimizeBudget};
-
-use crate::convert::{abi_id, abi_loop, closure, host_id, row_major};
 
 /// The built-in back-end's defaults as TOML; a unit test keeps them equal to `PgoConfig::default()`.
 const DEFAULT_CONFIG: &str = include_str!("pgo_defaults.toml");
@@ -39,7 +38,7 @@ impl BackendPlugin for PgoCdylib {
     }
 
     fn add_odometry(&mut self, edge: &AbiLoop) -> Result<(), String> {
-        let edge = closure(edge)?;
+        let edge = loop_from_abi(edge)?;
         let measurement = OdometryMeasurement {
             target: edge.target,
             source: edge.source,
@@ -53,7 +52,14 @@ impl BackendPlugin for PgoCdylib {
 
     fn add_loop(&mut self, lent: &AbiLoop) -> Result<(), String> {
         self.inner
-            .add_loop(closure(lent)?)
+            .add_loop(loop_from_abi(lent)?)
+            .map_err(|error| error.to_string())
+    }
+
+    fn add_prior(&mut self, prior: &AbiPrior) -> Result<(), String> {
+        let (id, world_from_sensor, information) = prior_from_abi(prior)?;
+        self.inner
+            .add_prior(id, world_from_sensor, information)
             .map_err(|error| error.to_string())
     }
 
@@ -102,6 +108,10 @@ impl BackendPlugin for PgoCdylib {
 
     fn loops(&self) -> Vec<AbiLoop> {
         self.inner.graph().loops().iter().map(abi_loop).collect()
+    }
+
+    fn rejected_loops(&self) -> Vec<u64> {
+        self.inner.rejected_loops().into_iter().map(|id| id.0).collect()
     }
 }
 

@@ -24,9 +24,10 @@ pub struct GncConfig {
     pub fitness: FitnessConfig,
 }
 
-/// Runs the fitness check on a candidate: `Some(reason)` when it fails.
+/// Runs the fitness check on a candidate: `Some(reason)` when it fails. A candidate without clouds (a
+/// recorded pose graph replayed) is judged on its pose alone.
 fn fitness_rejection(config: &FitnessConfig, candidate: &LoopCandidate<'_>) -> Option<String> {
-    if !config.enabled {
+    if !config.enabled || (candidate.target_cloud.is_empty() && candidate.source_cloud.is_empty()) {
         return None;
     }
     let closure = &candidate.closure;

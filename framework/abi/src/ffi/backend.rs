@@ -1,6 +1,7 @@
-//! The back-end slot's function table: building a pose graph (keyframes, odometry edges, loops added and
-//! removed), optimising it within a budget, and answering the host's graph queries (poses, odometry
-//! between keyframes, and the keyframe and loop lists, which the plugin lends until its next call).
+//! The back-end slot's function table: building a pose graph (keyframes, odometry edges, priors, loops
+//! added and removed), optimising it within a budget, and answering the host's graph queries (poses,
+//! odometry between keyframes, the keyframe and loop lists, and the loops its robust solve rejects, which
+//! the plugin lends until its next call).
 
 use super::{
     AbiKeyframeId, AbiLoop, AbiRelativePose, AbiTransform, CreateFn, DestroyFn, ErrorBuf, Handle, Status,
@@ -34,6 +35,20 @@ pub type AddKeyframeFn = Option<
 pub type AddEdgeFn = Option<
     unsafe extern "C" fn(handle: Handle, edge: *const AbiLoop, is_loop: u32, error: *mut ErrorBuf) -> Status,
 >;
+
+/// A prior on one keyframe: its pose in the world frame and the 6×6 information (row-major, translation
+/// first) of the residual `Log(Z⁻¹ T)`, GTSAM's `PriorFactor`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct AbiPrior {
+    pub id: AbiKeyframeId,
+    pub world_from_sensor: AbiTransform,
+    pub information: [f64; 36],
+}
+
+/// Adds a prior on a known keyframe.
+pub type AddPriorFn =
+    Option<unsafe extern "C" fn(handle: Handle, prior: *const AbiPrior, error: *mut ErrorBuf) -> Status>;
 
 /// Removes a loop closure that was retracted; an unknown id is an error.
 pub type RemoveLoopFn = Option<unsafe extern "C" fn(handle: Handle, id: u64, error: *mut ErrorBuf) -> Status>;
@@ -85,6 +100,17 @@ pub type BackendListsFn = Option<
     ) -> Status,
 >;
 
+/// The ids of the loops in the graph that the last robust solve gave no weight (its outliers), lent
+/// until the next call on the instance; none for a back-end that does not judge loops.
+pub type RejectedLoopsFn = Option<
+    unsafe extern "C" fn(
+        handle: Handle,
+        out_ids: *mut *const u64,
+        out_count: *mut usize,
+        error: *mut ErrorBuf,
+    ) -> Status,
+>;
+
 /// The back-end slot's function table ([`SlotKind::BACKEND`](super::SlotKind::BACKEND)).
 #[repr(C)]
 #[derive(Debug)]
@@ -92,10 +118,12 @@ pub struct BackendVTable {
     pub create: CreateFn,
     pub add_keyframe: AddKeyframeFn,
     pub add_edge: AddEdgeFn,
+    pub add_prior: AddPriorFn,
     pub remove_loop: RemoveLoopFn,
     pub optimize: OptimizeFn,
     pub pose: BackendPoseFn,
     pub odometry_between: BackendOdometryFn,
     pub lists: BackendListsFn,
+    pub rejected_loops: RejectedLoopsFn,
     pub destroy: DestroyFn,
 }

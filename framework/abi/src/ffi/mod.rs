@@ -19,8 +19,8 @@ mod verifier;
 use std::ffi::c_void;
 
 pub use backend::{
-    AbiOptimizeReport, AddEdgeFn, AddKeyframeFn, BackendListsFn, BackendOdometryFn, BackendPoseFn,
-    BackendVTable, OptimizeFn, RemoveLoopFn,
+    AbiOptimizeReport, AbiPrior, AddEdgeFn, AddKeyframeFn, AddPriorFn, BackendListsFn, BackendOdometryFn,
+    BackendPoseFn, BackendVTable, OptimizeFn, RejectedLoopsFn, RemoveLoopFn,
 };
 pub use descriptor::{
     AbiPlaceCandidate, DescribeFn, DescriptorLenFn, DescriptorVTable, ExcludeFn, IndexInsertFn, IndexLenFn,

@@ -8,10 +8,12 @@ use skid_core::slots::{
 use skid_core::{Information, KeyframeId, LoopId, Params, PluginContext, PluginEntry, PluginResult, Pose};
 
 use super::call::{CallError, ErrorSlot, copy_lent};
-use super::graph::{abi_id, abi_loop, host_id, loop_from_abi};
 use super::instance::{Instance, registry_entry};
 use super::library::{BackendFns, PluginSpec};
-use crate::ffi::{AbiKeyframeId, AbiLoop, AbiOptimizeReport, AbiRelativePose, AbiTransform, Status};
+use crate::ffi::{
+    AbiKeyframeId, AbiLoop, AbiOptimizeReport, AbiPrior, AbiRelativePose, AbiTransform, Status,
+};
+use crate::graph::{abi_id, abi_loop, host_id, loop_from_abi, row_major};
 use crate::transform::{abi_from_pose, pose_from_abi};
 
 /// More keyframes or loops than any graph SKiD builds; a larger count is a lie.
@@ -116,6 +118,22 @@ impl Backend for DynBackend {
         self.add_edge(&edge, false)
     }
 
+    fn add_prior(
+        &mut self,
+        id: KeyframeId,
+        world_from_sensor: Pose,
+        information: Information,
+    ) -> PluginResult<()> {
+        let prior = AbiPrior {
+            id: abi_id(id),
+            world_from_sensor: abi_from_pose(&world_from_sensor),
+            information: row_major(&information),
+        };
+        let (handle, add_prior) = (self.instance.handle.as_ptr(), self.fns.add_prior);
+        // SAFETY: a live handle of this plugin; the prior and the error slot are host data valid for the call.
+        self.call(|error| unsafe { add_prior(handle, &prior, error) })
+    }
+
     fn add_loop(&mut self, closure: LoopClosure) -> PluginResult<()> {
         self.add_edge(&abi_loop(&closure), true)
     }
@@ -143,6 +161,25 @@ impl Backend for DynBackend {
 
     fn graph(&self) -> &dyn GraphView {
         self
+    }
+
+    fn rejected_loops(&self) -> Vec<LoopId> {
+        let (mut ids, mut count) = (std::ptr::null(), 0_usize);
+        let (handle, rejected_loops) = (self.instance.handle.as_ptr(), self.fns.rejected_loops);
+        // SAFETY: a live handle of this plugin and host-owned outputs valid for the call.
+        let called = self.call(|error| unsafe { rejected_loops(handle, &mut ids, &mut count, error) });
+        let result = called.and_then(|()| {
+            if count > MAX_GRAPH_ITEMS || (count > 0 && ids.is_null()) {
+                return Err(self
+                    .instance
+                    .bad_output(format!("rejected_loops: an implausible list of {count} loops")));
+            }
+            // SAFETY: the plugin lends the list until its next call; non-null when non-empty and within
+            // the plausible bound, both checked above.
+            let ids: Vec<u64> = unsafe { copy_lent(ids, count) };
+            Ok(Some(ids.into_iter().map(LoopId).collect()))
+        });
+        self.absent(result).unwrap_or_default()
     }
 }
 

@@ -14,11 +14,12 @@ use skid_core::{Params, Slot};
 
 use super::{AbiError, logging};
 use crate::ffi::{
-    AbiStr, AddEdgeFn, AddKeyframeFn, AlignFn, BackendListsFn, BackendOdometryFn, BackendPoseFn,
+    AbiStr, AddEdgeFn, AddKeyframeFn, AddPriorFn, AlignFn, BackendListsFn, BackendOdometryFn, BackendPoseFn,
     BackendVTable, Checked, CoarseVTable, CreateFn, DescribeFn, DescriptorLenFn, DescriptorVTable, DestroyFn,
     DestroyPreparedFn, FineVTable, IndexInsertFn, IndexLenFn, IndexQueryFn, LibraryDecl, NewIndexFn,
     NextScanFn, OdometryVTable, OptimizeFn, PluginDecl, PrepareFn, PreparedPointsFn, RefineFn, RegisterFn,
-    RemoveLoopFn, SlotKind, SourceInfoFn, SourceVTable, Status, SubmitFn, Threading, VerifierVTable,
+    RejectedLoopsFn, RemoveLoopFn, SlotKind, SourceInfoFn, SourceVTable, Status, SubmitFn, Threading,
+    VerifierVTable,
 };
 use crate::{ABI_VERSION, ENTRY_SYMBOL, FRAMEWORK_VERSION};
 
@@ -108,11 +109,13 @@ pub(crate) struct BackendFns {
     pub(crate) create: Checked<CreateFn>,
     pub(crate) add_keyframe: Checked<AddKeyframeFn>,
     pub(crate) add_edge: Checked<AddEdgeFn>,
+    pub(crate) add_prior: Checked<AddPriorFn>,
     pub(crate) remove_loop: Checked<RemoveLoopFn>,
     pub(crate) optimize: Checked<OptimizeFn>,
     pub(crate) pose: Checked<BackendPoseFn>,
     pub(crate) odometry_between: Checked<BackendOdometryFn>,
     pub(crate) lists: Checked<BackendListsFn>,
+    pub(crate) rejected_loops: Checked<RejectedLoopsFn>,
     pub(crate) destroy: Checked<DestroyFn>,
 }
 
@@ -375,21 +378,25 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
                 Some(create),
                 Some(add_keyframe),
                 Some(add_edge),
+                Some(add_prior),
                 Some(remove_loop),
                 Some(optimize),
                 Some(pose),
                 Some(odometry_between),
                 Some(lists),
+                Some(rejected_loops),
                 Some(destroy),
             ) = (
                 table.create,
                 table.add_keyframe,
                 table.add_edge,
+                table.add_prior,
                 table.remove_loop,
                 table.optimize,
                 table.pose,
                 table.odometry_between,
                 table.lists,
+                table.rejected_loops,
                 table.destroy,
             )
             else {
@@ -399,11 +406,13 @@ fn check_plugin(path: &Path, decl: &PluginDecl) -> Result<PluginSpec, Refusal> {
                 create,
                 add_keyframe,
                 add_edge,
+                add_prior,
                 remove_loop,
                 optimize,
                 pose,
                 odometry_between,
                 lists,
+                rejected_loops,
                 destroy,
             })
         }

@@ -8,7 +8,6 @@
 mod backend;
 mod call;
 mod descriptor;
-mod graph;
 mod index;
 mod instance;
 mod library;

@@ -11,10 +11,10 @@ use skid_core::slots::{GraphView, LoopCandidate, Verdict, Verifier};
 use skid_core::{LoopId, Params, PluginContext, PluginEntry, PluginResult};
 
 use super::call::{ErrorSlot, copy_lent};
-use super::graph::{abi_id, abi_loop, host_id, row_major};
 use super::instance::{Instance, registry_entry};
 use super::library::{PluginSpec, VerifierFns};
 use crate::ffi::{AbiCloud, AbiGraph, AbiKeyframeId, AbiLoop, AbiRelativePose, AbiTransform, AbiVerdict};
+use crate::graph::{abi_id, abi_loop, host_id, row_major};
 use crate::transform::abi_from_pose;
 
 /// More loop ids than one verdict can plausibly name; a larger count is a lie.

@@ -5,8 +5,8 @@
 use super::glue::{Failure, create_with, destroy, guard, instance};
 use super::{ConfigError, InstanceContext};
 use crate::ffi::{
-    AbiKeyframeId, AbiLoop, AbiOptimizeReport, AbiRelativePose, AbiStr, AbiTransform, BackendVTable,
-    ErrorBuf, Handle, HostContext, Status,
+    AbiKeyframeId, AbiLoop, AbiOptimizeReport, AbiPrior, AbiRelativePose, AbiStr, AbiTransform,
+    BackendVTable, ErrorBuf, Handle, HostContext, Status,
 };
 
 /// A pose-graph back-end implemented in safe Rust, exported with [`export_plugins!`](crate::export_plugins).
@@ -26,6 +26,9 @@ pub trait BackendPlugin: Sized + Send + 'static {
 
     /// Adds an odometry edge between two known keyframes of one robot (the edge's id is unused).
     fn add_odometry(&mut self, edge: &AbiLoop) -> Result<(), String>;
+
+    /// Adds a prior on a known keyframe (refuse it with a reason if the back-end takes none).
+    fn add_prior(&mut self, prior: &AbiPrior) -> Result<(), String>;
 
     /// Adds an accepted loop closure.
     fn add_loop(&mut self, closure: &AbiLoop) -> Result<(), String>;
@@ -47,6 +50,12 @@ pub trait BackendPlugin: Sized + Send + 'static {
 
     /// Every loop closure in the graph.
     fn loops(&self) -> Vec<AbiLoop>;
+
+    /// The ids of the loops the last robust solve gave no weight; none for a back-end that does not
+    /// judge loops.
+    fn rejected_loops(&self) -> Vec<u64> {
+        Vec::new()
+    }
 }
 
 /// A back-end instance and the lists it last lent the host.
@@ -54,6 +63,7 @@ struct Lending<T> {
     plugin: T,
     keyframes: Vec<AbiKeyframeId>,
     loops: Vec<AbiLoop>,
+    rejected: Vec<u64>,
 }
 
 /// The back-end function table of plugin type `T`.
@@ -62,11 +72,13 @@ pub const fn backend_vtable<T: BackendPlugin>() -> BackendVTable {
         create: Some(create::<T>),
         add_keyframe: Some(add_keyframe::<T>),
         add_edge: Some(add_edge::<T>),
+        add_prior: Some(add_prior::<T>),
         remove_loop: Some(remove_loop::<T>),
         optimize: Some(optimize::<T>),
         pose: Some(pose::<T>),
         odometry_between: Some(odometry_between::<T>),
         lists: Some(lists::<T>),
+        rejected_loops: Some(rejected_loops::<T>),
         destroy: Some(destroy::<Lending<T>>),
     }
 }
@@ -76,6 +88,7 @@ fn lending<T: BackendPlugin>(config: &str, context: &InstanceContext) -> Result<
         plugin: T::from_config(config, context)?,
         keyframes: Vec::new(),
         loops: Vec::new(),
+        rejected: Vec::new(),
     })
 }
 
@@ -131,6 +144,20 @@ unsafe extern "C" fn add_edge<T: BackendPlugin>(
             lending.plugin.add_odometry(edge)
         };
         added.map_err(Failure::Failed)
+    })
+}
+
+unsafe extern "C" fn add_prior<T: BackendPlugin>(
+    handle: Handle,
+    prior: *const AbiPrior,
+    error: *mut ErrorBuf,
+) -> Status {
+    guard(error, || {
+        // SAFETY: a live handle from `create`, called from one thread at a time.
+        let lending = unsafe { instance::<Lending<T>>(handle) }?;
+        // SAFETY: the host passes null or a prior valid for this call (only read).
+        let prior = unsafe { argument(prior.cast_mut(), "prior") }?;
+        lending.plugin.add_prior(prior).map_err(Failure::Failed)
     })
 }
 
@@ -229,6 +256,24 @@ unsafe extern "C" fn lists<T: BackendPlugin>(
         *outputs.1 = lending.keyframes.len();
         *outputs.2 = lending.loops.as_ptr();
         *outputs.3 = lending.loops.len();
+        Ok(())
+    })
+}
+
+unsafe extern "C" fn rejected_loops<T: BackendPlugin>(
+    handle: Handle,
+    out_ids: *mut *const u64,
+    out_count: *mut usize,
+    error: *mut ErrorBuf,
+) -> Status {
+    guard(error, || {
+        // SAFETY: a live handle from `create`, called from one thread at a time.
+        let lending = unsafe { instance::<Lending<T>>(handle) }?;
+        // SAFETY: the host passes null or values it owns for this call.
+        let (out_ids, out_count) = unsafe { (argument(out_ids, "id list")?, argument(out_count, "count")?) };
+        lending.rejected = lending.plugin.rejected_loops();
+        *out_ids = lending.rejected.as_ptr();
+        *out_count = lending.rejected.len();
         Ok(())
     })
 }

@@ -40,7 +40,9 @@ impl LoopClosure {
     }
 }
 
-/// A loop closure submitted for verification, with the two clouds it aligns (sensor frames).
+/// A loop closure submitted for verification, with the two clouds it aligns (sensor frames). Both clouds
+/// are empty when the candidate comes from a recorded pose graph (`skid replay`): a verifier then judges
+/// it on its pose alone and skips the checks that need clouds.
 #[derive(Clone, Debug)]
 pub struct LoopCandidate<'a> {
     pub closure: LoopClosure,
@@ -112,6 +114,16 @@ pub trait Backend: Send {
     /// Adds an odometry edge between two known keyframes of one robot.
     fn add_odometry(&mut self, measurement: OdometryMeasurement) -> PluginResult<()>;
 
+    /// Adds a prior on a known keyframe: its pose in the world frame, measured with `information`
+    /// (weighing the residual `Log(Z⁻¹ T)`, translation first, as GTSAM's `PriorFactor`). A pose graph
+    /// whose robots start at known poses (a recorded problem's, or a prior map's) is anchored by them.
+    fn add_prior(
+        &mut self,
+        id: KeyframeId,
+        world_from_sensor: Pose,
+        information: Information,
+    ) -> PluginResult<()>;
+
     /// Adds an accepted loop closure.
     fn add_loop(&mut self, closure: LoopClosure) -> PluginResult<()>;
 
@@ -123,4 +135,10 @@ pub trait Backend: Send {
 
     /// Read-only view of the graph.
     fn graph(&self) -> &dyn GraphView;
+
+    /// The loops in the graph that the last robust solve gave no weight (GNC's outliers): they stay in
+    /// the graph but do not move it. Empty for a back-end that does not judge loops.
+    fn rejected_loops(&self) -> Vec<LoopId> {
+        Vec::new()
+    }
 }
