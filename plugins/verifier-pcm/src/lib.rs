@@ -1,11 +1,13 @@
 //! SKiD loop verification: the two-stage outlier rejection of SKiD-SLAM (Kim et al., §IV-D): a
 //! truncated-MSE fitness check of each loop's clouds ([`fitness`]), then pairwise consistency
 //! maximisation (PCM; Mangelson et al., ICRA 2018) over the loops of each robot pair ([`pcm`],
-//! [`consistency`], [`clique`]).
+//! [`consistency`], [`clique`], [`dense`]).
 //!
 //! Plugins (verifier slot):
-//! - `pcm`: both stages; loops of a robot pair are accepted as the maximum clique of their consistency
-//!   graph, updated as loops arrive, and earlier acceptances are retracted when the clique changes.
+//! - `pcm`: both stages; loops of a robot pair are accepted as the consistent core of their
+//!   consistency graph (every accepted loop consistent with at least 90 % of the others, found by
+//!   peeling; or, with `min_consistent_fraction = 1`, the maximum clique), updated as loops arrive, and
+//!   earlier acceptances are retracted when the accepted set changes.
 //! - `gnc`: the fitness stage only, accepting the rest; pair it with `[backend.pgo] robust = "gnc"` so
 //!   graduated non-convexity with a truncated-least-squares loss rejects outliers in the back-end.
 //!
@@ -13,6 +15,7 @@
 
 pub mod clique;
 pub mod consistency;
+pub mod dense;
 pub mod fitness;
 pub mod lie;
 pub mod pcm;

@@ -3,7 +3,10 @@
 //! loop of its group ([`crate::consistency`]), becoming a vertex of the group's consistency graph, and the
 //! accepted set is a maximum clique of that graph ([`crate::clique`]).
 //!
-//! Incremental update: adding one vertex `v` raises the maximum clique size by at most one, so when the
+//! The accepted set is the maximum clique with `min_consistent_fraction = 1`; below 1 (the default) it is
+//! the consistent core that peeling keeps ([`crate::dense`]), recomputed at each new loop.
+//!
+//! Incremental update of the clique: adding one vertex `v` raises the maximum clique size by at most one, so when the
 //! current clique is exact it suffices to look for a clique of the current size inside `v`'s
 //! neighbourhood; if there is one, it and `v` replace the current clique (and the loops it leaves out are
 //! retracted), otherwise the current clique stays. Two cheap cases come first: `v` consistent with the
@@ -19,6 +22,7 @@ use skid_core::{LoopId, RobotId};
 
 use crate::clique::{Graph, extend_greedily, heuristic_clique, max_clique, max_clique_within};
 use crate::consistency::{PcmLoop, squared_mahalanobis};
+use crate::dense::consistent_core;
 use crate::lie::chi2_quantile;
 
 /// Parameters of PCM.
@@ -35,6 +39,12 @@ pub struct PcmParams {
     pub clique_search_budget: u64,
     /// Verify intra-robot loops with PCM too (otherwise they are accepted after the fitness check).
     pub check_intra_robot: bool,
+    /// Each accepted loop must be consistent with at least this fraction of the group's other accepted
+    /// loops: 1 is the classic rule (a maximum clique, searched exactly within the budget); below 1 the
+    /// set is peeled ([`crate::dense`]), so a true loop that fails the test with a few others by chance
+    /// stays (real covariances give heavy-tailed test statistics). The default 0.8 is the largest that
+    /// drops no more true loops than GNC-TLS alone on COSMO-Bench's real problems (0.9 drops 2–57 more).
+    pub min_consistent_fraction: f64,
 }
 
 impl Default for PcmParams {
@@ -44,6 +54,7 @@ impl Default for PcmParams {
             min_loops_before_decision: 5,
             clique_search_budget: 2_000_000,
             check_intra_robot: true,
+            min_consistent_fraction: 0.8,
         }
     }
 }
@@ -55,6 +66,12 @@ impl PcmParams {
             return Err(format!(
                 "consistency_probability must lie in (0, 1), got {}",
                 self.consistency_probability
+            ));
+        }
+        if !(self.min_consistent_fraction > 0.0 && self.min_consistent_fraction <= 1.0) {
+            return Err(format!(
+                "min_consistent_fraction must lie in (0, 1], got {}",
+                self.min_consistent_fraction
             ));
         }
         Ok(())
@@ -162,7 +179,11 @@ impl Pcm {
             });
         }
         let budget = self.params.clique_search_budget;
-        if group.decided {
+        if self.params.min_consistent_fraction < 1.0 {
+            group.clique = consistent_core(&group.graph, self.params.min_consistent_fraction);
+            group.decided = true;
+            group.exact = true;
+        } else if group.decided {
             // Adding `v` raises the maximum clique size by at most one, so a clique of the current size
             // plus one that contains `v` is a maximum clique.
             let target = group.clique.len() + 1;
