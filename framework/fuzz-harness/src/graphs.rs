@@ -1,7 +1,8 @@
 //! The pose-graph file harnesses: g2o (2D and 3D, decided by the file) and TORO, read with missing
-//! vertices refused, then guessed.
+//! vertices refused, then guessed; and JRL datasets (collaborative problems with outlier labels).
 
 use skid_io::g2o::{AnyPoseGraph, G2oReadOptions, GraphPose, MissingVertices, PoseGraph, read_g2o};
+use skid_io::jrl::{JrlFactor, parse_jrl};
 use skid_io::toro::{InformationConvention, read_toro};
 
 use crate::scratch::with_file;
@@ -47,5 +48,33 @@ pub fn toro(data: &[u8]) {
         if let Some(Ok(file)) = with_file("fuzz.graph", data, |path| read_toro(path, convention, &strict)) {
             check_any(&file.graph);
         }
+    }
+}
+
+/// A JRL dataset that parses names only robots it lists, and every covariance is positive definite.
+pub fn jrl(data: &[u8]) {
+    let Ok(dataset) = parse_jrl(std::path::Path::new("fuzz.jrl"), data) else {
+        return;
+    };
+    let listed = |letter: char| dataset.robot(letter).is_some();
+    for (_, _, measurement) in dataset.measurements() {
+        let (keys, covariance) = match &measurement.factor {
+            JrlFactor::Prior { key, covariance, .. } => (vec![*key], covariance),
+            JrlFactor::Between {
+                target,
+                source,
+                covariance,
+                ..
+            } => (vec![*target, *source], covariance),
+        };
+        assert!(
+            keys.iter().all(|key| listed(key.robot())),
+            "a key of an unlisted robot"
+        );
+        assert!(
+            covariance.cholesky().is_some(),
+            "a covariance that is not positive definite"
+        );
+        assert!(!measurement.outlier || measurement.potential_outlier);
     }
 }

@@ -1,6 +1,6 @@
 //! Fuzz harnesses for every decoder that reads bytes from outside the process (issue #20, item 4): the
 //! inter-robot protocol (envelope and message bodies), the point-cloud files (PCD, PLY, KITTI `.bin`),
-//! the pose-graph files (g2o, TORO), the bag containers (ROS 1, MCAP) and the ROS messages inside them.
+//! the pose-graph files (g2o, TORO, JRL), the bag containers (ROS 1, MCAP) and the ROS messages inside them.
 //!
 //! Each harness takes arbitrary bytes, runs the real reader on them and checks what a caller relies on:
 //! no panic, no unbounded allocation (libFuzzer's `-malloc_limit_mb` catches that), and for inputs that
@@ -21,7 +21,7 @@ pub mod seeds;
 
 pub use bags::{mcap_bag, ros_messages, ros1_bag};
 pub use clouds::{kitti_bin, pcd, ply};
-pub use graphs::{g2o, toro};
+pub use graphs::{g2o, jrl, toro};
 pub use protocol::protocol_message;
 
 /// A fuzz harness: arbitrary bytes in, a panic only on a real defect.
@@ -35,6 +35,7 @@ pub const TARGETS: &[(&str, Harness)] = &[
     ("kitti_bin", kitti_bin),
     ("g2o", g2o),
     ("toro", toro),
+    ("jrl", jrl),
     ("ros1_bag", ros1_bag),
     ("mcap_bag", mcap_bag),
     ("ros_messages", ros_messages),

@@ -157,6 +157,25 @@ fn graph_seeds(target: &str) -> Vec<Vec<u8>> {
     texts.iter().map(|text| text.as_bytes().to_vec()).collect()
 }
 
+/// Two robots, `a` with a prior, odometry and a labelled wrong loop to `b` (keys: the letter times 2^56
+/// plus the pose index).
+const JRL_SEED: &str = r#"{"name": "seed", "robots": [97, 98],
+ "groundtruth": {"a": [{"key": 6989586621679009792, "type": "Pose3", "rotation": [1, 0, 0, 0], "translation": [0, 0, 0]}]},
+ "initialization": {"b": [{"key": 7061644215716937728, "type": "Pose3", "rotation": [1, 0, 0, 0], "translation": [5, 0, 0]}]},
+ "measurements": {"a": [
+  {"stamp": 10, "measurements": [{"type": "PriorFactorPose3", "key": 6989586621679009792,
+    "prior": {"type": "Pose3", "rotation": [1, 0, 0, 0], "translation": [0, 0, 0]},
+    "covariance": [1e-6,0,0,0,0,0, 0,1e-6,0,0,0,0, 0,0,1e-6,0,0,0, 0,0,0,1e-4,0,0, 0,0,0,0,1e-4,0, 0,0,0,0,0,1e-4]}]},
+  {"stamp": 20, "measurements": [{"type": "BetweenFactorPose3", "key1": 6989586621679009792, "key2": 6989586621679009793,
+    "measurement": {"type": "Pose3", "rotation": [0.99, 0, 0, 0.1], "translation": [1, 0, 0]},
+    "covariance": [1e-3,0,0,0,0,0, 0,1e-3,0,0,0,0, 0,0,1e-3,0,0,0, 0,0,0,1e-2,0,0, 0,0,0,0,1e-2,0, 0,0,0,0,0,1e-2]},
+   {"type": "BetweenFactorPose3", "key1": 6989586621679009793, "key2": 7061644215716937728,
+    "measurement": {"type": "Pose3", "rotation": [1, 0, 0, 0], "translation": [4, 0, 0]},
+    "covariance": [1e-2,0,0,0,0,0, 0,1e-2,0,0,0,0, 0,0,1e-2,0,0,0, 0,0,0,1e-1,0,0, 0,0,0,0,1e-1,0, 0,0,0,0,0,1e-1]}]}],
+  "b": []},
+ "potential_outlier_factors": {"a": [[1, 1]]},
+ "outlier_factors": {"a": [[1, 1]]}}"#;
+
 /// A two-scan recording with IMU and ground truth, written by SKiD's bag writer.
 fn bag_seed(format: BagFormat) -> Option<Vec<u8>> {
     let folder = std::env::temp_dir().join(format!("skid-fuzz-seed-{}-{format:?}", std::process::id()));
@@ -195,6 +214,7 @@ pub fn seeds(target: &str) -> Vec<Vec<u8>> {
         "protocol_message" => protocol_seeds(),
         "pcd" | "ply" | "kitti_bin" => cloud_file_seeds(target),
         "g2o" | "toro" => graph_seeds(target),
+        "jrl" => vec![JRL_SEED.as_bytes().to_vec()],
         "ros1_bag" => bag_seed(BagFormat::Ros1).into_iter().collect(),
         "mcap_bag" => bag_seed(BagFormat::Mcap).into_iter().collect(),
         "ros_messages" => ros_message_seeds(),

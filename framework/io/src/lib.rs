@@ -9,6 +9,7 @@
 //! | [`trajectory`] | TUM (`stamp tx ty tz qx qy qz qw`) and KITTI (3x4 per line) trajectories |
 //! | [`g2o`] | g2o 2D/3D pose graphs (`VERTEX_SE2`, `EDGE_SE2`, `VERTEX_SE3:QUAT`, `EDGE_SE3:QUAT`, `FIX`) |
 //! | [`toro`] | TORO 2D/3D pose graphs (`VERTEX2`, `EDGE2`, `VERTEX3`, `EDGE3`, `EQUIV`) |
+//! | [`jrl`] | JSON Robot Log collaborative SLAM problems (COSMO-Bench): Pose3 priors and between factors, per-robot ground truth and initialisation, outlier labels |
 //! | [`mod@data_dir`] | where the shared test data lives (`SKID_DATA_DIR`) |
 //! | [`staged`] | output folders written whole (`<name>.incomplete/`, renamed when complete) |
 //!
@@ -23,6 +24,7 @@ pub mod data_dir;
 mod error;
 pub mod g2o;
 pub mod geometry;
+pub mod jrl;
 pub mod kitti;
 pub mod pcd;
 pub mod ply;

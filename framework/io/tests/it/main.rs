@@ -5,6 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // Test code fails loudly by design.
 
 mod formats;
+mod jrl;
 mod malformed;
 mod real_clouds;
 mod real_pose_graphs;
