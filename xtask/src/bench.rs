@@ -115,6 +115,12 @@ pub const PROFILES: &[BenchProfile] = &[
         binary: "skid-bench-stages",
     },
     BenchProfile {
+        name: "cosmo",
+        summary: "COSMO-Bench's real 3-robot problems with labelled wrong loops through SKiD's verifier and back-end, batch and distributed-incremental, beside GTSAM 4.3 (LM, LM on inliers, GNC-TLS) in the same run",
+        package: "skid-bench",
+        binary: "skid-bench-cosmo",
+    },
+    BenchProfile {
         name: "zenoh-tls",
         summary: "the zenoh transport's mutual TLS against plain TCP: bytes on the wire of the default pipeline as three robot processes, one-way latency by message size",
         package: "skid-bench",

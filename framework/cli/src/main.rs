@@ -155,6 +155,25 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Replay a recorded collaborative SLAM problem (a JSON Robot Log file, e.g. COSMO-Bench) through the
+    /// configured verifier and back-end; prints each robot's ATE against the file's ground truth and the
+    /// loops kept and dropped against its outlier labels.
+    Replay {
+        /// The `.jrl` file.
+        file: PathBuf,
+        /// incremental: one verifier and back-end per robot, measurements in stamp order, accepted
+        /// inter-robot loops shared as `skid run` shares them; batch: one graph holding every robot.
+        #[arg(long, default_value = "incremental", value_parser = ["incremental", "batch"])]
+        mode: String,
+        /// Write each robot's trajectory.tum, ground_truth.tum and pose_graph.g2o under DIR/robot_<letter>/.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// One JSON line instead of the table.
+        #[arg(long)]
+        json: bool,
+        #[command(flatten)]
+        layers: LayerArgs,
+    },
     /// Inspect ROS bags and MCAP files.
     #[command(subcommand)]
     Bag(BagCommand),
@@ -439,6 +458,13 @@ fn main() -> ExitCode {
             init,
             out,
         } => commands::extra::pgo(&file, &robust, &init, out.as_deref()),
+        Command::Replay {
+            file,
+            mode,
+            out,
+            json,
+            layers,
+        } => commands::replay::replay(&registry, &file, &mode, out.as_deref(), json, &layers),
         Command::Sim {
             command:
                 SimCommand::Export {

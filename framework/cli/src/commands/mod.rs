@@ -6,6 +6,7 @@ pub mod fleet;
 pub mod pcm;
 pub mod plot;
 pub mod plugin_check;
+pub mod replay;
 pub mod robot;
 pub mod sim_bag;
 pub mod table;

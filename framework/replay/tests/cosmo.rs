@@ -1,0 +1,88 @@
+//! The replay on a real COSMO-Bench problem (`cosmo_bench/tuhh_r3_00_day_wifi.jrl` of the shared data
+//! folder: three robots of the MCD TUHH recording, 741 loop closures of which 73 are labelled wrong)
+//! with SKiD's default verifier and back-end (PCM, then GNC-TLS in `pgo`): the problem's counts match the
+//! file's own labels, both modes run to the end, and what they report adds up.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test code fails loudly by design.
+
+use skid_backend_pgo::{PgoBackend, PgoConfig, RobustMode};
+use skid_core::slots::{Backend, OptimizeBudget, Verifier};
+use skid_core::{PluginContext, PluginResult, RobotId};
+use skid_replay::{PluginFactory, ReplayMode, ReplayProblem, ReplayReport};
+use skid_verifier_pcm::{PcmConfig, PcmVerifier};
+
+/// The default configuration's verifier and back-end; `distributed` as each mode needs.
+struct Defaults {
+    distributed: bool,
+}
+
+impl PluginFactory for Defaults {
+    fn verifier(&self, _robot: RobotId) -> PluginResult<Box<dyn Verifier>> {
+        Ok(Box::new(PcmVerifier::new(PcmConfig::default())?))
+    }
+
+    fn backend(&self, robot: RobotId) -> PluginResult<Box<dyn Backend>> {
+        let config = PgoConfig {
+            robust: RobustMode::Gnc,
+            distributed: self.distributed,
+            ..PgoConfig::default()
+        };
+        let context = PluginContext {
+            robot,
+            ..PluginContext::default()
+        };
+        Ok(Box::new(PgoBackend::new(config, &context)?))
+    }
+}
+
+fn problem() -> ReplayProblem {
+    let path = skid_io::data_path("cosmo_bench/tuhh_r3_00_day_wifi.jrl").unwrap_or_else(|e| panic!("{e}"));
+    ReplayProblem::from_dataset(&skid_io::jrl::read_jrl(&path).unwrap()).unwrap()
+}
+
+fn check(report: &ReplayReport, problem: &ReplayProblem) {
+    let (intra, inter) = (&report.intra, &report.inter);
+    // The file's own labels: 741 loop closures (possibly wrong), 73 of them labelled wrong; 384
+    // inter-robot factors, one of which the file does not list as possibly wrong.
+    assert_eq!(
+        (
+            intra.loops + inter.loops,
+            intra.known_inliers + inter.known_inliers,
+            inter.loops
+        ),
+        (742, 1, 384)
+    );
+    assert_eq!(intra.labelled_outliers + inter.labelled_outliers, 73);
+    for counts in [intra, inter] {
+        assert!(counts.kept <= counts.accepted && counts.accepted <= counts.loops);
+        assert_eq!(
+            counts.kept - counts.outliers_kept + counts.inliers_dropped,
+            counts.loops - counts.labelled_outliers,
+            "every true loop is kept or dropped"
+        );
+    }
+    assert_eq!(report.robots.len(), 3);
+    for (robot, truth) in report.robots.iter().zip(&problem.robots) {
+        assert_eq!(robot.keyframes, truth.ground_truth.len(), "robot {}", robot.robot);
+        assert!(robot.ate_m.is_finite() && robot.ate_aligned_m.is_finite());
+    }
+}
+
+#[test]
+fn both_modes_replay_a_real_problem_and_account_for_every_loop() {
+    let problem = problem();
+    assert_eq!(problem.robots.len(), 3);
+    assert_eq!(problem.labels.values().filter(|label| label.outlier).count(), 73);
+    for (mode, distributed) in [(ReplayMode::Batch, false), (ReplayMode::Incremental, true)] {
+        let outcome = skid_replay::replay(
+            &problem,
+            mode,
+            &Defaults { distributed },
+            OptimizeBudget::default(),
+        )
+        .unwrap();
+        let report = ReplayReport::new(&problem, &outcome);
+        check(&report, &problem);
+        eprintln!("{}", serde_json::to_string(&report).unwrap());
+    }
+}
