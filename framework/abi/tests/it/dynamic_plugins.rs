@@ -180,9 +180,10 @@ fn libraries_from_another_abi_or_without_entry_or_not_libraries_are_refused() {
         "{error}"
     );
     assert!(
-        error
-            .to_string()
-            .contains(&format!("plugin built for ABI v9999, host speaks v{}", skid_abi::ABI_VERSION)),
+        error.to_string().contains(&format!(
+            "plugin built for ABI v9999, host speaks v{}",
+            skid_abi::ABI_VERSION
+        )),
         "{error}"
     );
 

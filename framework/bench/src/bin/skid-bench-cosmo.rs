@@ -90,10 +90,17 @@ fn main() -> Result<()> {
         let folder = skid_io::data_dir().join("cosmo_bench");
         let mut files = skid_bench::files::files_with_extension(&folder, "jrl")?;
         files.retain(|file| {
-            let stem = file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            let stem = file
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
             settings.datasets.is_empty() || settings.datasets.contains(&stem)
         });
-        anyhow::ensure!(!files.is_empty(), "no COSMO-Bench problem (.jrl) in {}", folder.display());
+        anyhow::ensure!(
+            !files.is_empty(),
+            "no COSMO-Bench problem (.jrl) in {}",
+            folder.display()
+        );
         let mut rows = Vec::new();
         let mut plots = String::new();
         for file in &files {
@@ -105,7 +112,8 @@ fn main() -> Result<()> {
                 None => None,
             };
             let dataset = skid_io::jrl::read_jrl(file)?;
-            let problem = ReplayProblem::from_dataset(&dataset).with_context(|| format!("replaying {}", file.display()))?;
+            let problem = ReplayProblem::from_dataset(&dataset)
+                .with_context(|| format!("replaying {}", file.display()))?;
             for mode in [ReplayMode::Batch, ReplayMode::Incremental] {
                 let outcome = replay(&registry, settings, &problem, mode)
                     .with_context(|| format!("replaying {}", file.display()))?;
@@ -113,8 +121,15 @@ fn main() -> Result<()> {
                 let row = row_of(&replayed, gtsam.as_ref());
                 eprintln!(
                     "{} {}: ATE {} m (GTSAM GNC {} m), outliers kept {}, true loops dropped {}, {:.2} s (GTSAM GNC {:.1} s), p95 update {:.1} ms",
-                    row.dataset, row.mode, row.ate_m, row.gtsam_gnc_ate_m, row.outliers_kept, row.inliers_dropped,
-                    row.time_s, row.gtsam_gnc_s, row.p95_update_ms
+                    row.dataset,
+                    row.mode,
+                    row.ate_m,
+                    row.gtsam_gnc_ate_m,
+                    row.outliers_kept,
+                    row.inliers_dropped,
+                    row.time_s,
+                    row.gtsam_gnc_s,
+                    row.p95_update_ms
                 );
                 report.push(&row)?;
                 rows.push(row);
@@ -151,7 +166,10 @@ fn replay(
 fn row_of(replayed: &ReplayReport, gtsam: Option<&Gtsam>) -> Row {
     let letters: Vec<String> = replayed.robots.iter().map(|r| r.robot.to_string()).collect();
     let reference = |map: &BTreeMap<String, f64>| -> Vec<f64> {
-        letters.iter().map(|l| map.get(l).copied().unwrap_or(f64::NAN)).collect()
+        letters
+            .iter()
+            .map(|l| map.get(l).copied().unwrap_or(f64::NAN))
+            .collect()
     };
     let ours: Vec<f64> = replayed.robots.iter().map(|r| r.ate_m).collect();
     let gnc = gtsam.map(|g| reference(&g.gnc_tls.ate_m)).unwrap_or_default();
@@ -176,15 +194,23 @@ fn row_of(replayed: &ReplayReport, gtsam: Option<&Gtsam>) -> Row {
         time_ratio: replayed.total_s / gnc_s,
         p95_update_ms: replayed.updates.p95_ms,
         max_update_ms: replayed.updates.max_ms,
-        gtsam_lm_all_ate_m: gtsam.map(|g| per_robot(reference(&g.lm_all.ate_m))).unwrap_or_default(),
-        gtsam_lm_inliers_ate_m: gtsam.map(|g| per_robot(reference(&g.lm_inliers.ate_m))).unwrap_or_default(),
+        gtsam_lm_all_ate_m: gtsam
+            .map(|g| per_robot(reference(&g.lm_all.ate_m)))
+            .unwrap_or_default(),
+        gtsam_lm_inliers_ate_m: gtsam
+            .map(|g| per_robot(reference(&g.lm_inliers.ate_m)))
+            .unwrap_or_default(),
         gtsam_lm_all_s: gtsam.map_or(f64::NAN, |g| g.lm_all.s),
     }
 }
 
 /// Top-down view of one problem: each robot's ground truth dashed and its estimate, and the loops the
 /// back-end kept, green when the file labels them true and red when it labels them wrong.
-fn plot(path: &Path, problem: &ReplayProblem, outcome: &ReplayOutcome) -> Result<skid_eval::plot::PlotOutput> {
+fn plot(
+    path: &Path,
+    problem: &ReplayProblem,
+    outcome: &ReplayOutcome,
+) -> Result<skid_eval::plot::PlotOutput> {
     const COLOURS: [[u8; 3]; 3] = [[31, 119, 180], [255, 127, 14], [148, 103, 189]];
     let mut series = Vec::new();
     for (index, (robot, estimate)) in problem.robots.iter().zip(&outcome.estimates).enumerate() {
@@ -214,10 +240,16 @@ fn plot(path: &Path, problem: &ReplayProblem, outcome: &ReplayOutcome) -> Result
     };
     for event in &problem.events {
         for item in &event.items {
-            let Item::Loop { closure, label } = item else { continue };
+            let Item::Loop { closure, label } = item else {
+                continue;
+            };
             let kept = outcome.loops.get(&closure.id).is_some_and(|fate| fate.kept());
             if let (true, Some(a), Some(b)) = (kept, position(closure.target), position(closure.source)) {
-                let list = if label.outlier { &mut wrong_kept } else { &mut true_kept };
+                let list = if label.outlier {
+                    &mut wrong_kept
+                } else {
+                    &mut true_kept
+                };
                 list.extend([a, b]);
             }
         }
@@ -287,4 +319,3 @@ fn markdown(rows: &[Row], plots: &str) -> String {
         plots
     )
 }
-
