@@ -3,7 +3,10 @@
 //! in one process (its front-ends inline, on threads or in child processes), `single` runs one robot of
 //! it against live peers.
 
+use std::sync::Arc;
+
 use skid_config::ResolvedConfig;
+use skid_core::slots::SimulatedNetwork;
 use skid_core::{PluginContext, PluginError, Registry, RobotId, Slot};
 use skid_protocol::{ProtocolConfig, ProtocolEndpoint};
 
@@ -16,32 +19,19 @@ use crate::observer::Observers;
 pub struct Fleet {
     pub config: ResolvedConfig,
     pub robots: Vec<RobotHost>,
-    /// The in-process hub when the robots talk through the `loopback` transport: its simulated clock
-    /// follows the scans' stamps and its link model sees the robots' true positions.
-    pub hub: Option<skid_transport_loopback::LoopbackHub>,
+    /// The in-process network when the robots' transport simulates one (`loopback`): its clock follows
+    /// the scans' stamps and its link model sees the robots' true positions.
+    pub network: Option<Arc<dyn SimulatedNetwork>>,
     /// What watches the robots as they run (a live ROS 2 bridge, …).
     pub observers: Observers,
 }
 
-/// Gives the `loopback` transport's hub a name unique to this fleet, so two runs in one process (tests,
-/// benchmarks) never share links. Returns the name.
-fn isolate_loopback_hub(config: &mut ResolvedConfig) -> Option<String> {
-    let transport = config.slots.get_mut(&Slot::Transport)?;
-    if transport.plugin != "loopback" {
-        return None;
-    }
+/// A name for one fleet's run, unique within the process, for the plugins that share state between the
+/// robots of one run (`PluginContext::run_scope`).
+fn new_run_scope() -> String {
     static FLEETS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let serial = FLEETS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let mut table = transport.params.table().clone();
-    let base = table
-        .get("hub")
-        .and_then(|v| v.as_str())
-        .unwrap_or("default")
-        .to_owned();
-    let name = format!("{base}/{}/{serial}", std::process::id());
-    table.insert("hub".into(), toml::Value::String(name.clone()));
-    transport.params = skid_core::Params::new(table);
-    Some(name)
+    format!("{}/{serial}", std::process::id())
 }
 
 pub(crate) fn build<T: ?Sized + 'static>(
@@ -92,8 +82,12 @@ pub(crate) fn build_host(
     robot: RobotId,
     session: u32,
     clock: HostClock,
+    run_scope: Option<String>,
 ) -> Result<RobotHost, RuntimeError> {
-    let context = plugin_context(config, robot);
+    let context = PluginContext {
+        run_scope,
+        ..plugin_context(config, robot)
+    };
     let source = build(&registry.source, config, &context)?.ok_or_else(|| RuntimeError::Plugin {
         robot,
         slot: Slot::Source,
@@ -118,8 +112,8 @@ pub(crate) fn build_host(
 impl Fleet {
     /// Builds every robot's plugins. `threads` is the whole host's budget; in lockstep every robot may
     /// use all of it, since only one robot runs at a time.
-    pub fn build(mut config: ResolvedConfig, registry: &Registry) -> Result<Self, RuntimeError> {
-        let hub_name = isolate_loopback_hub(&mut config);
+    pub fn build(config: ResolvedConfig, registry: &Registry) -> Result<Self, RuntimeError> {
+        let run_scope = new_run_scope();
         let mut robots = Vec::new();
         for index in 0..config.run.robots {
             // Lockstep runs must reproduce bit for bit, so the session number comes from the seed.
@@ -132,13 +126,16 @@ impl Fleet {
                 RobotId(index),
                 session,
                 HostClock::scan_time(),
+                Some(run_scope.clone()),
             )?);
         }
-        let hub = hub_name.and_then(|name| skid_transport_loopback::LoopbackHub::find(&name));
+        let network = robots
+            .iter()
+            .find_map(|robot| robot.plugins.transport.as_ref()?.simulated_network());
         Ok(Self {
             config,
             robots,
-            hub,
+            network,
             observers: Observers::default(),
         })
     }

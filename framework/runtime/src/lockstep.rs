@@ -62,7 +62,7 @@ impl Fleet {
             if round >= DELIVERY_ROUNDS && !waiting {
                 break;
             }
-            if let Some(hub) = &self.hub {
+            if let Some(hub) = &self.network {
                 hub.advance_to(hub.now_nanos() + CLOUD_RETRY_NANOS);
                 for robot in &mut self.robots {
                     robot.clock.advance_to(hub.now_nanos());
@@ -114,7 +114,7 @@ impl Fleet {
 
     /// Moves the hub's simulated clock to the newest scan stamp and tells it where the robots are.
     fn sync_hub(&self) {
-        let Some(hub) = &self.hub else { return };
+        let Some(hub) = &self.network else { return };
         let newest = self
             .robots
             .iter()

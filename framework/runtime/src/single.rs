@@ -73,12 +73,13 @@ impl SingleRobot {
             RobotId(index),
             fresh_session(index),
             HostClock::wall(),
+            None,
         )?;
         Ok(Self {
             fleet: Fleet {
                 config,
                 robots: vec![host],
-                hub: None,
+                network: None,
                 observers: Observers::default(),
             },
             catch_up: CatchUp::default(),

@@ -22,6 +22,17 @@ use skid_runtime::{Fleet, RunSummary};
 
 const SCANS: usize = 45;
 
+/// The fleet's simulated network as the `loopback` transport's hub (fault injection, link statistics).
+fn loopback_hub(fleet: &Fleet) -> &skid_transport_loopback::LoopbackHub {
+    fleet
+        .network
+        .as_ref()
+        .expect("the default transport simulates the network")
+        .as_any()
+        .downcast_ref::<skid_transport_loopback::LoopbackHub>()
+        .expect("the simulated network is the loopback hub")
+}
+
 fn fleet(extra: &[&str]) -> Fleet {
     let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
     let registry = skid_builtin::registry().unwrap();
@@ -144,10 +155,7 @@ fn thirty_percent_loss_still_finds_inter_robot_loops() {
     let mut lossy = fleet(&["transport.loopback.link.loss=0.3"]);
     let summary = lossy.run_lockstep(|_| {}).unwrap();
     assert_complete_without_duplicates(&lossy, &summary);
-    let lost: u64 = lossy
-        .hub
-        .as_ref()
-        .unwrap()
+    let lost: u64 = loopback_hub(&lossy)
         .stats()
         .links
         .iter()
@@ -244,7 +252,7 @@ fn bad_datagrams(from: RobotId, claimed: RobotId) -> Vec<Vec<u8>> {
 #[test]
 fn malformed_and_oversized_datagrams_are_dropped_and_nothing_is_lost() {
     let mut attacked = fleet(&[]);
-    let hub = attacked.hub.clone().unwrap();
+    let hub = loopback_hub(&attacked).clone();
     let garbage = bad_datagrams(RobotId(1), RobotId(2));
     let mut round = 0;
     let summary = attacked
@@ -275,7 +283,7 @@ fn malformed_and_oversized_datagrams_are_dropped_and_nothing_is_lost() {
 /// `None`).
 fn run_with_robot_2_isolated(from: usize, until: Option<usize>) -> (Fleet, RunSummary) {
     let mut fleet = fleet(&[]);
-    let hub = fleet.hub.clone().unwrap();
+    let hub = loopback_hub(&fleet).clone();
     let mut round = 0;
     let summary = fleet
         .run_lockstep(|_| {
@@ -297,10 +305,7 @@ fn a_robot_cut_off_for_a_while_finds_loops_once_its_link_returns() {
     assert_complete_without_duplicates(&restored, &summary);
     let (never, summary_never) = run_with_robot_2_isolated(10, None);
     assert_complete_without_duplicates(&never, &summary_never);
-    let unreachable: u64 = never
-        .hub
-        .as_ref()
-        .unwrap()
+    let unreachable: u64 = loopback_hub(&never)
         .stats()
         .links
         .iter()

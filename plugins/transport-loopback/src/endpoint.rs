@@ -1,8 +1,10 @@
 //! One robot's endpoint on a loopback hub: the `Transport` slot implementation.
 
+use std::any::Any;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use skid_core::slots::{Datagram, Destination, PeerInfo, Transport};
+use skid_core::slots::{Datagram, Destination, PeerInfo, SimulatedNetwork, Transport};
 use skid_core::{PluginError, PluginResult, RobotId};
 
 use crate::hub::{ClockMode, HubState, LoopbackHub};
@@ -158,5 +160,28 @@ impl Transport for LoopbackEndpoint {
                     .map(|&at| Duration::from_nanos(now.saturating_sub(at))),
             })
             .collect()
+    }
+
+    fn simulated_network(&self) -> Option<Arc<dyn SimulatedNetwork>> {
+        Some(Arc::new(self.hub.clone()))
+    }
+}
+
+/// The hub is the simulated network the runtime drives.
+impl SimulatedNetwork for LoopbackHub {
+    fn now_nanos(&self) -> u64 {
+        LoopbackHub::now_nanos(self)
+    }
+
+    fn advance_to(&self, nanos: u64) {
+        LoopbackHub::advance_to(self, nanos);
+    }
+
+    fn set_position(&self, robot: RobotId, position_m: [f64; 3]) {
+        LoopbackHub::set_position(self, robot, position_m);
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
     }
 }

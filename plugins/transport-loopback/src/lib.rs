@@ -7,8 +7,9 @@
 //!   positions, link cuts and isolation; per-link [`HubStats`].
 //! - [`LoopbackEndpoint`]: one robot's [`Transport`].
 //! - [`register`]: the `loopback` plugin. Robots built from the registry find their hub by the `hub`
-//!   name in the config (a process-wide table of live hubs); the runtime gets the same hub with
-//!   [`LoopbackHub::find`] to advance the simulated clock and set robot positions.
+//!   name in the config within their run's scope (`PluginContext::run_scope`; a process-wide table of
+//!   live hubs); the runtime drives the hub through each endpoint's `Transport::simulated_network` to
+//!   advance the simulated clock and set robot positions.
 
 mod endpoint;
 mod hub;
@@ -70,11 +71,12 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         "loopback",
         "In-process transport for N robots with a link model (bandwidth, latency, loss, reordering, range)",
         |config: LoopbackConfig, context: &PluginContext| {
-            let hub = LoopbackHub::named(
-                &config.hub,
-                config.hub_config(),
-                config.seed.unwrap_or(context.seed),
-            )?;
+            // Robots of one run share the hub; another run in the process gets its own.
+            let name = match &context.run_scope {
+                Some(scope) => format!("{}/{scope}", config.hub),
+                None => config.hub.clone(),
+            };
+            let hub = LoopbackHub::named(&name, config.hub_config(), config.seed.unwrap_or(context.seed))?;
             Ok(Box::new(hub.endpoint(context.robot)?) as Box<dyn Transport>)
         },
     )?;

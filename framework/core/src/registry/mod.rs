@@ -37,6 +37,10 @@ pub struct PluginContext {
     /// Whether this robot's source delivers IMU samples with its scans ([`Source::provides_imu`]); the
     /// host sets it once the source is built, before the other plugins.
     pub source_provides_imu: bool,
+    /// A name unique to this run within the process, set by the runtime: a plugin that keeps state shared
+    /// by the robots of one run in the process (the `loopback` transport's hub) keys it by this, so two
+    /// runs in one process (tests, benchmarks) never meet. `None` outside a run.
+    pub run_scope: Option<String>,
 }
 
 impl PluginContext {
@@ -59,6 +63,7 @@ impl Default for PluginContext {
             seed: 0,
             output_dir: None,
             source_provides_imu: false,
+            run_scope: None,
         }
     }
 }

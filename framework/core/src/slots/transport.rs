@@ -1,9 +1,13 @@
 //! Transport slot: moves opaque, already-encoded protocol messages between robots.
 //!
 //! The protocol (envelopes, size limits, message kinds) lives in the runtime; a transport only moves
-//! bytes, is polled (no hidden threads) and never blocks past the deadline it is given.
+//! bytes, is polled (no hidden threads) and never blocks past the deadline it is given. A transport that
+//! simulates the network in process (the `loopback` link model) also offers a [`SimulatedNetwork`], which
+//! the runtime drives with the scans' clock and the robots' true positions, whatever the plugin's name.
 
+use std::any::Any;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::Duration;
 
 use crate::{PluginResult, RobotId};
@@ -50,4 +54,26 @@ pub trait Transport: Send {
     fn refusals(&self) -> BTreeMap<String, u64> {
         BTreeMap::new()
     }
+
+    /// The in-process network this endpoint is part of, when the transport simulates one; `None` for a
+    /// real network.
+    fn simulated_network(&self) -> Option<Arc<dyn SimulatedNetwork>> {
+        None
+    }
+}
+
+/// A network simulated in process, shared by the endpoints of one run: its clock follows the scans'
+/// stamps (in a lockstep run) and its link model may depend on where the robots are.
+pub trait SimulatedNetwork: Send + Sync {
+    /// The network's clock in nanoseconds.
+    fn now_nanos(&self) -> u64;
+
+    /// Moves the clock forward to `nanos` (never back).
+    fn advance_to(&self, nanos: u64);
+
+    /// Where `robot` is, metres in any frame common to the robots, for range-dependent links.
+    fn set_position(&self, robot: RobotId, position_m: [f64; 3]);
+
+    /// The concrete network, for tests and tools that know it (fault injection, link statistics).
+    fn as_any(&self) -> &dyn Any;
 }
