@@ -229,6 +229,9 @@ enum FleetCommand {
         years: i32,
         /// The folder to write into (created when missing).
         dir: PathBuf,
+        /// Replace a CA already in the folder (the robots' certificates signed by it stop working).
+        #[arg(long)]
+        overwrite: bool,
     },
 }
 
@@ -478,9 +481,12 @@ fn main() -> ExitCode {
             command: SimCommand::Preview { flags, out, size_px },
         } => commands::extra::sim_preview(&flags.args(), &out, size_px),
         Command::Bag(BagCommand::Info { path, json }) => commands::bag::info(&path, json),
-        Command::Fleet(FleetCommand::Certs { robots, years, dir }) => {
-            commands::fleet::certs(robots, years, &dir)
-        }
+        Command::Fleet(FleetCommand::Certs {
+            robots,
+            years,
+            dir,
+            overwrite,
+        }) => commands::fleet::certs(robots, years, &dir, overwrite),
         Command::Odometry { folder, out, layers } => {
             commands::tools::odometry(&registry, &folder, out.as_deref(), &layers)
         }

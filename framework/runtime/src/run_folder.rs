@@ -1,9 +1,10 @@
 //! Where a run writes: `<output_dir>/<name>.incomplete/` while it runs (plugins, the front-end processes'
 //! stage files and the outputs all go there), renamed to `<output_dir>/<name>/` when every output is
-//! written. A rerun under the same name replaces the old run folder only then and whole (no stale
-//! `robot2/` from an earlier, larger fleet); an interrupted run leaves only the `.incomplete` folder
-//! with its `INCOMPLETE` marker. A non-empty folder under the run's name that is not a SKiD run (it has
-//! no `config.toml`) is never replaced.
+//! written. A rerun under the same name takes the old run's place only then and whole (no stale
+//! `robot2/` from an earlier, larger fleet), and the old run is kept aside as `<name>.previous/` (one
+//! generation: an older `.previous` goes), with a warning; an interrupted run leaves only the
+//! `.incomplete` folder with its `INCOMPLETE` marker. A non-empty folder under the run's name that is not
+//! a SKiD run (it has no `config.toml`) is never replaced.
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -84,7 +85,28 @@ pub(crate) fn commit(folder: &StagedFolder) -> Result<PathBuf, RuntimeError> {
         std::fs::remove_dir_all(&stages).map_err(|e| crate::error::output_error(&stages, e))?;
     }
     set_started(folder, false);
+    keep_previous_aside(folder.target())?;
     folder.commit().map_err(|e| staged_error(folder, e))
+}
+
+/// Moves a completed run at `target` to `<target>.previous`, replacing an older one there.
+fn keep_previous_aside(target: &Path) -> Result<(), RuntimeError> {
+    if !target.join("config.toml").is_file() {
+        return Ok(());
+    }
+    let mut name = target.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    name.push(".previous");
+    let previous = target.with_file_name(name);
+    if previous.exists() {
+        std::fs::remove_dir_all(&previous).map_err(|e| crate::error::output_error(&previous, e))?;
+    }
+    std::fs::rename(target, &previous).map_err(|e| crate::error::output_error(target, e))?;
+    tracing::warn!(
+        run = %target.display(),
+        previous = %previous.display(),
+        "a run of the same name was there: it is kept as the previous run (one generation)"
+    );
+    Ok(())
 }
 
 /// After a run failed or was stopped: drops the front-end processes' stage files and records `reason`

@@ -38,6 +38,10 @@ pub struct RobotSummary {
 #[derive(Clone, Debug, Serialize)]
 pub struct RunSummary {
     pub name: String,
+    /// The SKiD version and the commit it was built from (`None` outside a git work tree; `-dirty` when
+    /// tracked files had changes).
+    pub skid_version: &'static str,
+    pub skid_commit: Option<&'static str>,
     pub robots: Vec<RobotSummary>,
     pub wall_s: f64,
     pub slots: BTreeMap<String, String>,
@@ -47,6 +51,8 @@ impl RunSummary {
     pub fn of(fleet: &Fleet, wall_s: f64) -> Self {
         Self {
             name: fleet.config.run.name.clone(),
+            skid_version: env!("CARGO_PKG_VERSION"),
+            skid_commit: option_env!("SKID_GIT_COMMIT"),
             robots: fleet.robots.iter().map(robot_summary).collect(),
             wall_s,
             slots: Slot::ALL

@@ -323,11 +323,18 @@ impl Odometry for KissIcpOdometry {
         self.last_registration = Some(registration);
         if degenerate {
             self.degenerate_scans += 1;
-            if self.degenerate_scans.is_power_of_two() {
+            if self.degenerate_scans == 1 {
+                tracing::info!(
+                    robot = %self.robot,
+                    scan = scan.sequence,
+                    "kiss_icp: the scan's geometry leaves a direction unconstrained; the motion model carries it \
+                     (expected in corridors and on open ground; later scans like it are counted at debug level)"
+                );
+            } else if self.degenerate_scans.is_power_of_two() {
                 let (translation, rotation) = degeneracy.as_ref().map_or(([0.0; 3], [0.0; 3]), |d| {
                     (d.translation.ratios(), d.rotation.ratios())
                 });
-                tracing::warn!(
+                tracing::debug!(
                     robot = %self.robot,
                     scan = scan.sequence,
                     degenerate_scans = self.degenerate_scans,

@@ -388,8 +388,17 @@ impl Odometry for LioOdometry {
                 Some(outcome) => {
                     if outcome.degenerate {
                         self.counters.degenerate_scans += 1;
-                        if self.counters.degenerate_scans.is_power_of_two() {
-                            tracing::warn!(
+                        // Expected on open ground (planetary terrain, long corridors): said once per
+                        // robot, with repeats counted at debug level, not a warning to act on.
+                        if self.counters.degenerate_scans == 1 {
+                            tracing::info!(
+                                robot = %self.robot,
+                                scan = scan.sequence,
+                                "lio: the scan's planes leave a direction unconstrained; the IMU carries it \
+                                 (expected on open ground; later scans like it are counted at debug level)"
+                            );
+                        } else if self.counters.degenerate_scans.is_power_of_two() {
+                            tracing::debug!(
                                 robot = %self.robot,
                                 scan = scan.sequence,
                                 degenerate_scans = self.counters.degenerate_scans,
@@ -404,7 +413,14 @@ impl Odometry for LioOdometry {
                 }
                 None => {
                     self.counters.unconstrained_scans += 1;
-                    tracing::warn!(robot = %self.robot, scan = scan.sequence, "lio: no point found a plane; keeping the prediction");
+                    if self.counters.unconstrained_scans.is_power_of_two() {
+                        tracing::warn!(
+                            robot = %self.robot,
+                            scan = scan.sequence,
+                            unconstrained_scans = self.counters.unconstrained_scans,
+                            "lio: no point found a plane; keeping the prediction (repeats logged at powers of two)"
+                        );
+                    }
                 }
             }
         }

@@ -128,6 +128,18 @@ fn run_writes_trajectories_and_a_summary() {
     assert!(summary["robots"][0]["estimated_path_length_m"].as_f64().unwrap() > 1.0);
     assert_eq!(summary["robots"][0]["scans_read"], 8);
     assert_eq!(summary["robots"][0]["scans_skipped"], 0);
+    // The summary names what made it: the version, and the commit when built from a git work tree.
+    assert_eq!(summary["skid_version"], env!("CARGO_PKG_VERSION"));
+    if std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../.git")
+        .exists()
+    {
+        let commit = summary["skid_commit"].as_str().unwrap_or_default();
+        assert!(
+            commit.len() >= 40 && commit[..40].chars().all(|c| c.is_ascii_hexdigit()),
+            "{commit}"
+        );
+    }
     // `-q` keeps stderr to warnings: no human table.
     assert!(
         !text(&output.stderr).contains("outputs:"),
@@ -218,4 +230,29 @@ fn skid_io_read_tum(path: &Path) -> usize {
         .lines()
         .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
         .count()
+}
+
+#[test]
+fn fleet_certs_refuse_to_replace_a_ca_unless_told() {
+    let dir = tempfile::tempdir().unwrap();
+    let certs = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_skid"))
+            .args(["fleet", "certs", "--robots", "2"])
+            .args(extra)
+            .arg(dir.path())
+            .output()
+            .unwrap()
+    };
+    assert!(certs(&[]).status.success());
+    let first_ca = std::fs::read(dir.path().join("ca.pem")).unwrap();
+    let again = certs(&[]);
+    assert!(!again.status.success());
+    let message = String::from_utf8_lossy(&again.stderr);
+    assert!(
+        message.contains("ca.pem") && message.contains("--overwrite"),
+        "{message}"
+    );
+    assert_eq!(std::fs::read(dir.path().join("ca.pem")).unwrap(), first_ca);
+    assert!(certs(&["--overwrite"]).status.success());
+    assert_ne!(std::fs::read(dir.path().join("ca.pem")).unwrap(), first_ca);
 }

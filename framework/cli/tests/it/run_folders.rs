@@ -1,7 +1,8 @@
 //! Stopping a run: SIGINT or SIGTERM to `skid run --set deploy.mode=processes` stops its front-end
 //! processes, exits with 128 + the signal, and leaves only `<name>.incomplete/` (with its `INCOMPLETE`
 //! marker and the reason) beside an earlier complete run of the same name, which stays intact; a run that
-//! finishes replaces the earlier one whole (no stale `robot2/` from a larger fleet). `skid sim export`
+//! finishes replaces the earlier one whole (no stale `robot2/` from a larger fleet), keeping it aside as
+//! `<name>.previous/` with a warning. `skid sim export`
 //! refuses a non-empty folder unless `--overwrite`, and then replaces it whole.
 
 #![cfg(target_os = "linux")]
@@ -181,11 +182,24 @@ fn a_rerun_replaces_the_earlier_run_whole() {
         !folder.join("robot2").exists(),
         "the 2-robot rerun kept the old robot2/"
     );
-    let names: Vec<_> = std::fs::read_dir(out.path())
+    // The earlier run is kept aside, whole, and nothing else is left beside the run.
+    let previous = out.path().join("stopped.previous");
+    assert!(previous.join("robot2").is_dir() && previous.join("summary.json").is_file());
+    let mut names: Vec<_> = std::fs::read_dir(out.path())
         .unwrap()
         .map(|entry| entry.unwrap().file_name().into_string().unwrap())
         .collect();
-    assert_eq!(names, vec!["stopped".to_string()], "leftovers beside the run");
+    names.sort();
+    assert_eq!(
+        names,
+        vec!["stopped".to_string(), "stopped.previous".to_string()],
+        "leftovers beside the run"
+    );
+    assert!(
+        String::from_utf8_lossy(&two.stderr).contains("kept as the previous run"),
+        "{}",
+        String::from_utf8_lossy(&two.stderr)
+    );
 }
 
 #[test]
