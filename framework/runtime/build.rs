@@ -8,7 +8,12 @@ use std::process::Command;
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let git = root.join(".git");
-    // Re-run when HEAD moves or the branch it names gets a new commit.
+    println!("cargo:rerun-if-changed=build.rs");
+    if !git.join("HEAD").is_file() {
+        // Not a git work tree (a source archive): no commit to record, nothing to watch.
+        return;
+    }
+    // Re-run when HEAD moves, the branch it names gets a new commit or the index changes.
     println!("cargo:rerun-if-changed={}", git.join("HEAD").display());
     if let Ok(head) = std::fs::read_to_string(git.join("HEAD"))
         && let Some(reference) = head.trim().strip_prefix("ref: ")
