@@ -5,7 +5,8 @@
 //! The summary section at the end of the file (found through the footer) lists every schema and channel,
 //! so topics are known before the first message; a file without a summary learns its channels as they
 //! appear. Messages are ROS 2 CDR (`message_encoding = "cdr"`) or ROS 1 (`"ros1"`); the schema name is the
-//! message type.
+//! message type. A file cut short (a recorder that crashed) is read up to the cut, with a warning naming
+//! the byte offset.
 
 use std::collections::{HashMap, HashSet};
 use std::fs::File;
@@ -242,6 +243,18 @@ impl MessageReader for McapReader {
             let event = match next {
                 None => {
                     *finished = true;
+                    break;
+                }
+                Some(Err(mcap::McapError::UnexpectedEof)) => {
+                    // A recorder that stopped while writing leaves the file cut inside a record: what
+                    // came before it is read, as the reference readers do, and the cut is reported.
+                    *finished = true;
+                    tracing::warn!(
+                        path = %path.display(),
+                        byte_offset = *bytes_read,
+                        "the MCAP file ends in the middle of a record (cut short while it was written?); \
+                         the messages before the cut are read, the rest is lost"
+                    );
                     break;
                 }
                 Some(event) => event.map_err(|e| malformed(format!("near this offset: {e}")))?,

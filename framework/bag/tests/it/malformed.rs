@@ -119,6 +119,22 @@ fn truncated_files_end_with_a_warning_or_an_error_never_a_panic() {
 }
 
 #[test]
+fn a_truncated_mcap_is_read_up_to_the_cut() {
+    for name in ["zstd.mcap", "lz4.mcap"] {
+        let full = read_everything(&fixtures().join(name)).unwrap();
+        let bytes = std::fs::read(fixtures().join(name)).unwrap();
+        // Cut inside the data section (the summary and footer go with the tail, as when a recorder dies).
+        let (_dir, path) = mutated(name, |bytes| bytes.truncate(bytes.len() * 2 / 3));
+        let read = read_everything(&path).unwrap_or_else(|error| panic!("{name}: {error}"));
+        assert!(
+            read > 0 && read < full,
+            "{name}: {read} of {full} messages from {} bytes",
+            bytes.len()
+        );
+    }
+}
+
+#[test]
 fn clouds_without_xyz_or_with_a_wrong_row_step_are_named() {
     let mut bag = Bag::open(&fixtures().join("bad_clouds.bag")).unwrap();
     let mut errors = Vec::new();
