@@ -96,6 +96,9 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
         if let Some(warning) = trajectory.and_then(|t| t.alignment_conditioning.warning()) {
             notes.push(format!("robot {}: {warning}", robot.robot));
         }
+        if let Some(reason) = &measured.alignment_unavailable {
+            notes.push(format!("robot {}: no α/β error: {reason}", robot.robot));
+        }
         if robot.scans_skipped > 0 {
             notes.push(format!(
                 "robot {}: {} of {} scans skipped by the odometry",
@@ -123,6 +126,13 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
             human_bytes(measured.bytes_sent_total),
             format!("{:.1}", robot.stage_ms.values().sum::<f64>() / 1e3),
         ]);
+    }
+    if metrics.inter_robot_candidates == 0 && summary.robots.len() > 1 {
+        notes.push(
+            "no inter-robot loop candidate: the robots did not see a common place (a short run ends before \
+             they meet; raise run.max_scans or choose a mission where they do)"
+                .to_owned(),
+        );
     }
     let mut text = format!(
         "\nrun `{}` finished in {:.1} s: {} inter-robot loops accepted of {} candidates, {} sent\n",
