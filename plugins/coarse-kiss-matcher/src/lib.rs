@@ -19,6 +19,7 @@
 //! [`CoarseRegistration::align`] is ignored: KISS-Matcher is global.
 
 pub mod features;
+pub mod front;
 pub mod kdtree;
 pub mod matching;
 mod pipeline;
@@ -114,38 +115,32 @@ impl Default for KissMatcherConfig {
 }
 
 impl KissMatcherConfig {
+    /// The settings of the FPFH front, shared with the RANSAC baseline.
+    pub fn front(&self) -> front::FrontSettings {
+        front::FrontSettings {
+            voxel_size_m: self.voxel_size_m,
+            normal_radius_gain: self.normal_radius_gain,
+            fpfh_radius_gain: self.fpfh_radius_gain,
+            min_normal_neighbours: self.min_normal_neighbours,
+            linearity_threshold: self.linearity_threshold,
+            mutual_filter: self.mutual_filter,
+            ratio_test: self.ratio_test,
+            max_feature_squared_distance: self.max_feature_squared_distance,
+            max_correspondences: self.max_correspondences,
+        }
+    }
+
     /// Checks every value; the message names the offending key.
     pub fn validate(&self) -> Result<(), String> {
-        let positive = |value: f64, key: &str| {
-            if value.is_finite() && value > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{key} must be a positive number, got {value}"))
+        self.front().validate()?;
+        for (value, key) in [
+            (self.pruning_noise_bound_gain, "pruning_noise_bound_gain"),
+            (self.solver_noise_bound_gain, "solver_noise_bound_gain"),
+            (self.gnc_cost_threshold, "gnc_cost_threshold"),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(format!("{key} must be a positive number, got {value}"));
             }
-        };
-        if !(self.voxel_size_m.is_finite() && self.voxel_size_m >= 5e-3) {
-            return Err(format!(
-                "voxel_size_m must be at least 0.005, got {}",
-                self.voxel_size_m
-            ));
-        }
-        positive(self.normal_radius_gain, "normal_radius_gain")?;
-        positive(self.fpfh_radius_gain, "fpfh_radius_gain")?;
-        positive(self.ratio_test, "ratio_test")?;
-        positive(self.max_feature_squared_distance, "max_feature_squared_distance")?;
-        positive(self.pruning_noise_bound_gain, "pruning_noise_bound_gain")?;
-        positive(self.solver_noise_bound_gain, "solver_noise_bound_gain")?;
-        positive(self.gnc_cost_threshold, "gnc_cost_threshold")?;
-        if self.normal_radius_gain > self.fpfh_radius_gain {
-            return Err(
-                "normal_radius_gain must not exceed fpfh_radius_gain (one search serves both)".into(),
-            );
-        }
-        if !(0.0..=1.0).contains(&self.linearity_threshold) {
-            return Err(format!(
-                "linearity_threshold must lie in [0, 1], got {}",
-                self.linearity_threshold
-            ));
         }
         if !(self.max_noise_bound_m.is_finite() && self.max_noise_bound_m >= 0.0) {
             return Err(format!(
@@ -159,8 +154,8 @@ impl KissMatcherConfig {
                 self.gnc_factor
             ));
         }
-        if self.gnc_max_iterations == 0 || self.min_normal_neighbours == 0 {
-            return Err("gnc_max_iterations and min_normal_neighbours must be at least 1".into());
+        if self.gnc_max_iterations == 0 {
+            return Err("gnc_max_iterations must be at least 1".into());
         }
         Ok(())
     }
@@ -177,22 +172,12 @@ impl KissMatcherConfig {
 
     /// The feature-extraction settings in metres.
     pub fn feature_params(&self) -> features::FeatureParams {
-        features::FeatureParams {
-            normal_radius_m: (self.normal_radius_gain * self.voxel_size_m) as f32,
-            fpfh_radius_m: (self.fpfh_radius_gain * self.voxel_size_m) as f32,
-            min_neighbours: self.min_normal_neighbours,
-            linearity_threshold: self.linearity_threshold as f32,
-        }
+        self.front().feature_params()
     }
 
     /// The matching settings.
     pub fn match_params(&self) -> matching::MatchParams {
-        matching::MatchParams {
-            mutual: self.mutual_filter,
-            ratio: self.ratio_test as f32,
-            max_squared_distance: self.max_feature_squared_distance as f32,
-            max_correspondences: self.max_correspondences,
-        }
+        self.front().match_params()
     }
 }
 

@@ -16,8 +16,9 @@ use std::time::Instant;
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use skid_coarse_kiss_matcher::features::{FeatureParams, VoxelSampling, compute_features, voxel_sample};
-use skid_coarse_kiss_matcher::matching::{MatchParams, match_descriptors};
+use skid_coarse_kiss_matcher::features::{VoxelSampling, compute_features, voxel_sample};
+use skid_coarse_kiss_matcher::front::FrontSettings;
+use skid_coarse_kiss_matcher::matching::match_descriptors;
 use skid_coarse_kiss_matcher::thread_pool;
 use skid_core::slots::{CoarseAlignment, CoarseRegistration};
 use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry};
@@ -84,68 +85,43 @@ impl Default for RansacConfig {
 }
 
 impl RansacConfig {
+    /// The settings of the FPFH front, shared with KISS-Matcher.
+    fn front(&self) -> FrontSettings {
+        FrontSettings {
+            voxel_size_m: self.voxel_size_m,
+            normal_radius_gain: self.normal_radius_gain,
+            fpfh_radius_gain: self.fpfh_radius_gain,
+            min_normal_neighbours: self.min_normal_neighbours,
+            linearity_threshold: self.linearity_threshold,
+            mutual_filter: self.mutual_filter,
+            ratio_test: self.ratio_test,
+            max_feature_squared_distance: self.max_feature_squared_distance,
+            max_correspondences: self.max_correspondences,
+        }
+    }
+
     /// Checks every value; the message names the offending key.
     pub fn validate(&self) -> Result<(), String> {
-        let positive = |value: f64, key: &str| {
-            if value.is_finite() && value > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{key} must be a positive number, got {value}"))
-            }
-        };
-        if !(self.voxel_size_m.is_finite() && self.voxel_size_m >= 5e-3) {
+        self.front().validate()?;
+        if !(self.inlier_distance_gain.is_finite() && self.inlier_distance_gain > 0.0) {
             return Err(format!(
-                "voxel_size_m must be at least 0.005, got {}",
-                self.voxel_size_m
+                "inlier_distance_gain must be a positive number, got {}",
+                self.inlier_distance_gain
             ));
         }
-        positive(self.normal_radius_gain, "normal_radius_gain")?;
-        positive(self.fpfh_radius_gain, "fpfh_radius_gain")?;
-        positive(self.ratio_test, "ratio_test")?;
-        positive(self.inlier_distance_gain, "inlier_distance_gain")?;
-        if self.normal_radius_gain > self.fpfh_radius_gain {
-            return Err(
-                "normal_radius_gain must not exceed fpfh_radius_gain (one search serves both)".into(),
-            );
-        }
-        if !(0.0..=1.0).contains(&self.linearity_threshold)
-            || !(0.0..=1.0).contains(&self.edge_length_similarity)
-        {
-            return Err("linearity_threshold and edge_length_similarity must lie in [0, 1]".into());
+        if !(0.0..=1.0).contains(&self.edge_length_similarity) {
+            return Err(format!(
+                "edge_length_similarity must lie in [0, 1], got {}",
+                self.edge_length_similarity
+            ));
         }
         if !(self.confidence > 0.0 && self.confidence < 1.0) {
             return Err(format!("confidence must lie in (0, 1), got {}", self.confidence));
         }
-        if !(self.max_feature_squared_distance.is_finite() && self.max_feature_squared_distance >= 0.0) {
-            return Err("max_feature_squared_distance must be 0 (no limit) or positive".into());
-        }
-        if self.max_iterations == 0 || self.min_normal_neighbours == 0 {
-            return Err("max_iterations and min_normal_neighbours must be at least 1".into());
+        if self.max_iterations == 0 {
+            return Err("max_iterations must be at least 1".into());
         }
         Ok(())
-    }
-
-    fn feature_params(&self) -> FeatureParams {
-        FeatureParams {
-            normal_radius_m: (self.normal_radius_gain * self.voxel_size_m) as f32,
-            fpfh_radius_m: (self.fpfh_radius_gain * self.voxel_size_m) as f32,
-            min_neighbours: self.min_normal_neighbours,
-            linearity_threshold: self.linearity_threshold as f32,
-        }
-    }
-
-    fn match_params(&self) -> MatchParams {
-        let max_squared_distance = if self.max_feature_squared_distance > 0.0 {
-            self.max_feature_squared_distance as f32
-        } else {
-            f32::INFINITY
-        };
-        MatchParams {
-            mutual: self.mutual_filter,
-            ratio: self.ratio_test as f32,
-            max_squared_distance,
-            max_correspondences: self.max_correspondences,
-        }
     }
 }
 
@@ -246,7 +222,7 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
         || voxel_sample(source, voxel_m, VoxelSampling::Centroid),
     );
     report.points = (target_points.len(), source_points.len());
-    let params = config.feature_params();
+    let params = config.front().feature_params();
     let (target_features, source_features) = rayon::join(
         || compute_features(&target_points, &Vector3::zeros(), &params),
         || compute_features(&source_points, &Vector3::zeros(), &params),
@@ -255,7 +231,7 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
     let matches = match_descriptors(
         &source_features.descriptors,
         &target_features.descriptors,
-        &config.match_params(),
+        &config.front().match_params(),
     );
     report.alignment.correspondence_count = matches.len();
     let needed = config.min_inliers.max(3);
