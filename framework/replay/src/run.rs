@@ -18,8 +18,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
 use skid_core::slots::{
-    Backend, GraphView, LoopCandidate, LoopClosure, OdometryMeasurement, OptimizeBudget, RelativePose,
-    Verdict, Verifier,
+    Backend, LoopCandidate, LoopClosure, OdometryMeasurement, OptimizeBudget, Verdict, Verifier,
 };
 use skid_core::{CloudView, Information, KeyframeId, LoopId, PluginError, PluginResult, Pose, RobotId};
 use skid_geometry::OdometryChains;
@@ -136,32 +135,14 @@ impl Known {
     }
 }
 
-/// The verifiers' view of the graph: the odometry chains known so far.
-impl GraphView for Known {
-    fn pose(&self, id: KeyframeId) -> Option<Pose> {
-        self.chains.pose(id)
-    }
-
-    fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
-        self.chains.between(target, source)
-    }
-
-    fn keyframes(&self) -> Vec<KeyframeId> {
-        self.chains.keyframes()
-    }
-
-    fn loops(&self) -> Vec<LoopClosure> {
-        Vec::new()
-    }
-}
-
 fn submit(verifier: &mut dyn Verifier, closure: &LoopClosure, known: &Known) -> PluginResult<Verdict> {
     let candidate = LoopCandidate {
         closure: closure.clone(),
         target_cloud: CloudView::default(),
         source_cloud: CloudView::default(),
     };
-    verifier.submit(&candidate, known)
+    // The verifiers see the odometry chains known so far.
+    verifier.submit(&candidate, &known.chains)
 }
 
 /// One back-end and what it holds.
