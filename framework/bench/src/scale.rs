@@ -104,19 +104,19 @@ pub struct Timeline {
 
 impl HostObserver for Timeline {
     fn scan(&mut self, host: &RobotHost) {
-        let Some(stamp) = host.scans.last().map(|scan| scan.stamp_nanos) else {
+        let Some(stamp) = host.scans().last().map(|scan| scan.stamp_nanos) else {
             return;
         };
         let first = *self.first_stamp_nanos.get_or_insert(stamp);
-        let stage = |name: &str| host.stage_ms.get(name).copied().unwrap_or(0.0);
+        let stage = |name: &str| host.stage_ms().get(name).copied().unwrap_or(0.0);
         let sample = Sample {
-            robot: host.robot.0,
+            robot: host.robot().0,
             time_s: stamp.saturating_sub(first) as f64 * 1e-9,
-            keyframes: host.keyframes.len(),
+            keyframes: host.keyframes().len(),
             backend_ms: stage("backend"),
             verifier_ms: stage("verifier"),
-            verified: host.loop_standing.len(),
-            loop_changes: host.loops.len() + 2 * host.stats.retracted,
+            verified: host.standing_loops().count(),
+            loop_changes: host.accepted_loops().len() + 2 * host.loop_stats().retracted,
         };
         self.samples
             .lock()

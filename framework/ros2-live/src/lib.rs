@@ -96,8 +96,8 @@ impl SharedSession {
 pub fn attach(fleet: &mut Fleet, settings: &LiveSettings) -> Result<SharedSession, LiveError> {
     let session = SharedSession::open(settings)?;
     for robot in &fleet.robots {
-        let live = Ros2Live::new(&session, robot.robot, settings.clone())?;
-        fleet.observers.attach(robot.robot, Box::new(live));
+        let live = Ros2Live::new(&session, robot.robot(), settings.clone())?;
+        fleet.observers.attach(robot.robot(), Box::new(live));
     }
     tracing::info!(
         session = %session.id(),

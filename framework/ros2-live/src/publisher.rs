@@ -141,17 +141,17 @@ impl Ros2Live {
 
     /// The correction from odometry to the optimised frame at the newest keyframe with both poses.
     fn correction(host: &RobotHost) -> Option<Pose> {
-        let index = host.scans.iter().rev().find_map(|scan| scan.keyframe)?;
+        let index = host.scans().iter().rev().find_map(|scan| scan.keyframe)?;
         let id = KeyframeId {
-            robot: host.robot,
+            robot: host.robot(),
             index,
         };
-        Some(host.keyframe_pose(index)? * host.chains.pose(id)?.inverse())
+        Some(host.keyframe_pose(index)? * host.chains().pose(id)?.inverse())
     }
 
     fn publish_map(&mut self, host: &RobotHost, stamp_nanos: u64) {
         let mut points = Vec::new();
-        for (&index, keyframe) in &host.keyframes {
+        for (&index, keyframe) in host.keyframes() {
             if let Some(pose) = host.keyframe_pose(index) {
                 points.extend(keyframe.cloud.view().transformed(&pose).points);
             }
@@ -181,13 +181,11 @@ impl Ros2Live {
             markers[line.class].segments.push((line.target_m, line.source_m));
         }
         // Each peer's keyframes as this robot's graph places them, joined in order.
-        if let Some(backend) = host.plugins.backend.as_ref() {
-            for peer in &host.peers_in_backend {
+        if let Some(graph) = host.backend_graph() {
+            for (peer, _) in host.joined_peers() {
                 let positions: Vec<[f64; 3]> = host
-                    .in_backend
-                    .iter()
-                    .filter(|id| id.robot == *peer)
-                    .filter_map(|id| backend.graph().pose(*id))
+                    .graph_keyframes_of(peer)
+                    .filter_map(|id| graph.pose(id))
                     .map(|pose| {
                         let t = pose.translation.vector;
                         [t.x, t.y, t.z]
@@ -209,13 +207,13 @@ impl Ros2Live {
 
 impl HostObserver for Ros2Live {
     fn scan(&mut self, host: &RobotHost) {
-        let Some(scan) = host.scans.last() else {
+        let Some(scan) = host.scans().last() else {
             return;
         };
         let pose = pose_to_wire(&scan.world_from_sensor);
         let message = encode::odometry(
             Encoding::Cdr,
-            host.scans.len() as u32,
+            host.scans().len() as u32,
             scan.stamp_nanos,
             (&self.frames[1], &self.frames[2]),
             pose.translation_m,
@@ -240,7 +238,7 @@ impl HostObserver for Ros2Live {
     }
 
     fn optimized(&mut self, host: &RobotHost) {
-        let stamp_nanos = host.scans.last().map_or(0, |scan| scan.stamp_nanos);
+        let stamp_nanos = host.scans().last().map_or(0, |scan| scan.stamp_nanos);
         self.map_from_odom = Self::correction(host).unwrap_or(self.map_from_odom);
         let poses: Vec<(u64, skid_core::msgs::PoseWire)> = host
             .optimised_trajectory()
@@ -256,7 +254,7 @@ impl HostObserver for Ros2Live {
     }
 
     fn finished(&mut self, host: &RobotHost) {
-        let stamp_nanos = host.scans.last().map_or(0, |scan| scan.stamp_nanos);
+        let stamp_nanos = host.scans().last().map_or(0, |scan| scan.stamp_nanos);
         self.publish_map(host, stamp_nanos);
     }
 }

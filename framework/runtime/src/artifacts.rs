@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use skid_core::slots::{GraphView, LoopClosure};
+use skid_core::slots::LoopClosure;
 use skid_core::{KeyframeId, Point, Pose};
 use skid_eval::plot;
 use skid_eval::plot::{LoopLine, PlotOptions, RobotTrack, RunPlotData};
@@ -40,7 +40,7 @@ pub fn merged_map(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<Point> {
     let mut map: Vec<Point> = Vec::new();
     for (robot, frame) in robots.iter().zip(frames) {
         let Some(alpha_from_robot) = frame else { continue };
-        for (&index, keyframe) in &robot.keyframes {
+        for (&index, keyframe) in robot.keyframes() {
             let Some(pose) = robot.keyframe_pose(index) else {
                 continue;
             };
@@ -60,14 +60,14 @@ pub fn merged_map(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<Point> {
 /// odometry edges between consecutive keyframes of each robot, and the accepted loops.
 pub fn pose_graph(robot: &RobotHost) -> PoseGraph<Pose> {
     let mut graph = PoseGraph::default();
-    let backend: Option<&dyn GraphView> = robot.plugins.backend.as_ref().map(|b| b.graph());
+    let backend = robot.backend_graph();
     let keyframes = match backend {
         Some(view) => view.keyframes(),
         None => robot
-            .keyframes
+            .keyframes()
             .keys()
             .map(|&index| KeyframeId {
-                robot: robot.robot,
+                robot: robot.robot(),
                 index,
             })
             .collect(),
@@ -75,7 +75,7 @@ pub fn pose_graph(robot: &RobotHost) -> PoseGraph<Pose> {
     for &id in &keyframes {
         let pose = backend
             .and_then(|view| view.pose(id))
-            .or_else(|| robot.chains.pose(id));
+            .or_else(|| robot.chains().pose(id));
         if let Some(pose) = pose {
             graph.vertices.insert(g2o_vertex_id(id), pose);
         }
@@ -85,7 +85,7 @@ pub fn pose_graph(robot: &RobotHost) -> PoseGraph<Pose> {
         if target.robot != source.robot {
             continue;
         }
-        if let Some(relative) = robot.chains.between(target, source) {
+        if let Some(relative) = robot.chains().between(target, source) {
             graph.edges.push(Edge {
                 from: g2o_vertex_id(target),
                 to: g2o_vertex_id(source),
@@ -98,7 +98,7 @@ pub fn pose_graph(robot: &RobotHost) -> PoseGraph<Pose> {
     // it is left out so the file stays a valid graph.
     let has_vertex = |id: KeyframeId| graph.vertices.contains_key(&g2o_vertex_id(id));
     let drawable: Vec<&LoopClosure> = robot
-        .loops
+        .accepted_loops()
         .values()
         .filter(|closure| has_vertex(closure.target) && has_vertex(closure.source))
         .collect();
@@ -121,7 +121,7 @@ pub fn write_pose_graphs(folder: &Path, robots: &[RobotHost]) -> Result<Vec<Path
     let mut written = Vec::new();
     for robot in robots {
         let path = folder
-            .join(format!("robot{}", robot.robot.0))
+            .join(format!("robot{}", robot.robot().0))
             .join("pose_graph.g2o");
         write_g2o_3d(&path, &pose_graph(robot)).map_err(|e| output_error(&path, e))?;
         written.push(path);
@@ -138,7 +138,7 @@ pub fn run_plot_data(robots: &[RobotHost], frames: &[Option<Pose>]) -> RunPlotDa
         .zip(frames)
         .map(|(robot, frame)| {
             let mut cloud: Vec<Point> = Vec::new();
-            for (&index, keyframe) in &robot.keyframes {
+            for (&index, keyframe) in robot.keyframes() {
                 if let Some(pose) = robot.keyframe_pose(index) {
                     cloud.extend_from_slice(&keyframe.cloud.view().transformed(&pose).points);
                 }
@@ -148,11 +148,11 @@ pub fn run_plot_data(robots: &[RobotHost], frames: &[Option<Pose>]) -> RunPlotDa
                 .map(|p| [f64::from(p.x), f64::from(p.y), f64::from(p.z)])
                 .collect();
             RobotTrack {
-                name: format!("robot {}", robot.robot.0),
+                name: format!("robot {}", robot.robot().0),
                 trajectory: robot.optimised_trajectory(),
                 map_from_robot: *frame,
                 ground_truth: robot
-                    .scans
+                    .scans()
                     .iter()
                     .filter_map(|scan| Some((scan.stamp_nanos, scan.ground_truth?)))
                     .collect(),

@@ -15,23 +15,24 @@ use crate::host::RobotHost;
 /// oversized) is logged: a robot never stops because a peer cannot be reached.
 pub(crate) fn send_all(robot: &mut RobotHost, messages: Vec<Message>) {
     for message in messages {
-        let destination = crate::messages::destination(robot.robot, &message);
+        let destination = crate::messages::destination(robot.robot(), &message);
         send_to(robot, destination, message);
     }
 }
 
 /// Encodes and sends one message from `robot` to `destination`; a failure is logged, never fatal.
 pub(crate) fn send_to(robot: &mut RobotHost, destination: Destination, message: Message) {
-    let Some(transport) = robot.plugins.transport.as_mut() else {
+    let robot_id = robot.robot();
+    let Some((transport, protocol)) = robot.transport_and_protocol() else {
         return;
     };
-    match robot.protocol.encode(&message) {
+    match protocol.encode(&message) {
         Ok(bytes) => {
             if let Err(error) = transport.send(destination, &bytes) {
-                tracing::warn!(robot = %robot.robot, %error, "send failed");
+                tracing::warn!(robot = %robot_id, %error, "send failed");
             }
         }
-        Err(error) => tracing::warn!(robot = %robot.robot, %error, "message not encoded"),
+        Err(error) => tracing::warn!(robot = %robot_id, %error, "message not encoded"),
     }
 }
 
@@ -47,13 +48,13 @@ pub(crate) fn deliver_filtered(
     config: &ResolvedConfig,
     mut keep: impl FnMut(&mut skid_protocol::Received) -> bool,
 ) -> Result<usize, RuntimeError> {
-    let Some(transport) = robot.plugins.transport.as_mut() else {
+    let Some((transport, _)) = robot.transport_and_protocol() else {
         return Ok(0);
     };
     let datagrams = match transport.poll(Duration::ZERO) {
         Ok(datagrams) => datagrams,
         Err(error) => {
-            tracing::warn!(robot = %robot.robot, %error, "poll failed");
+            tracing::warn!(robot = %robot.robot(), %error, "poll failed");
             return Ok(0);
         }
     };
@@ -61,7 +62,7 @@ pub(crate) fn deliver_filtered(
     let mut outbox = Vec::new();
     let mut replies = Vec::new();
     for datagram in datagrams {
-        match robot.protocol.receive(datagram.from, &datagram.payload) {
+        match robot.protocol_mut().receive(datagram.from, &datagram.payload) {
             Ok(Incoming::Message(mut received)) => {
                 if !keep(&mut received) {
                     continue;
@@ -70,9 +71,9 @@ pub(crate) fn deliver_filtered(
             }
             Ok(Incoming::Dropped { .. }) => {}
             Err(error) => {
-                let robot_id = robot.robot;
+                let robot_id = robot.robot();
                 robot
-                    .peer_faults
+                    .peer_faults_mut()
                     .note_malformed(robot_id, datagram.from, error.class(), &error);
             }
         }

@@ -131,7 +131,7 @@ impl Fleet {
         }
         let network = robots
             .iter()
-            .find_map(|robot| robot.plugins.transport.as_ref()?.simulated_network());
+            .find_map(|robot| robot.transport()?.simulated_network());
         Ok(Self {
             config,
             robots,

@@ -37,12 +37,12 @@ impl Fleet {
                 if robot.finished {
                     continue;
                 }
-                if max_scans > 0 && robot.scans_read >= max_scans {
+                if max_scans > 0 && robot.scans_read() >= max_scans {
                     robot.finished = true;
                     continue;
                 }
                 let mut outbox = Vec::new();
-                let (scans, optimizations) = (robot.scans.len(), robot.optimizations);
+                let (scans, optimizations) = (robot.scans().len(), robot.optimizations());
                 robot.finished = !robot
                     .step(&self.config, &mut outbox)
                     .map_err(crate::stop::or_interrupted)?;
@@ -58,14 +58,14 @@ impl Fleet {
         // Let the last messages arrive: advance the simulated clock past the link latency, asking again
         // for clouds still missing (over a lossy link, for up to `DRAIN_ROUNDS` retry periods).
         for round in 0..DRAIN_ROUNDS {
-            let waiting = self.robots.iter().any(|robot| !robot.requested.is_empty());
+            let waiting = self.robots.iter().any(|robot| robot.awaits_clouds());
             if round >= DELIVERY_ROUNDS && !waiting {
                 break;
             }
             if let Some(hub) = &self.network {
                 hub.advance_to(hub.now_nanos() + CLOUD_RETRY_NANOS);
                 for robot in &mut self.robots {
-                    robot.clock.advance_to(hub.now_nanos());
+                    robot.advance_clock_to(hub.now_nanos());
                     let again = robot.due_cloud_requests(CLOUD_RETRY_NANOS);
                     send_all(robot, again);
                 }
@@ -93,9 +93,9 @@ impl Fleet {
                         continue;
                     }
                     let front_end = robot.detach_front_end();
-                    let feed = ThreadFeed::spawn(robot.robot, front_end, max_scans).map_err(|e| {
+                    let feed = ThreadFeed::spawn(robot.robot(), front_end, max_scans).map_err(|e| {
                         RuntimeError::Plugin {
-                            robot: robot.robot,
+                            robot: robot.robot(),
                             slot: Slot::Source,
                             plugin: self.config.slot(Slot::Source).plugin.clone(),
                             source: PluginError::Failed {
@@ -118,16 +118,16 @@ impl Fleet {
         let newest = self
             .robots
             .iter()
-            .filter_map(|r| r.scans.last().map(|s| s.stamp_nanos))
+            .filter_map(|r| r.scans().last().map(|s| s.stamp_nanos))
             .max()
             .unwrap_or(0);
         if newest > hub.now_nanos() {
             hub.advance_to(newest);
         }
         for robot in &self.robots {
-            if let Some(truth) = robot.scans.last().and_then(|s| s.ground_truth) {
+            if let Some(truth) = robot.scans().last().and_then(|s| s.ground_truth) {
                 let t = truth.translation.vector;
-                hub.set_position(robot.robot, [t.x, t.y, t.z]);
+                hub.set_position(robot.robot(), [t.x, t.y, t.z]);
             }
         }
     }

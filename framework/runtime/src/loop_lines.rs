@@ -54,7 +54,7 @@ pub struct PlacedLoop {
 
 /// Where a keyframe sits in robot 0's map frame, when its robot's frame is known there.
 fn keyframe_in_map(robots: &[RobotHost], frames: &[Option<Pose>], id: KeyframeId) -> Option<[f64; 3]> {
-    let position = robots.iter().position(|robot| robot.robot == id.robot)?;
+    let position = robots.iter().position(|robot| robot.robot() == id.robot)?;
     let frame = frames.get(position).copied().flatten()?;
     let translation = (frame * robots[position].keyframe_pose(id.index)?)
         .translation
@@ -65,14 +65,11 @@ fn keyframe_in_map(robots: &[RobotHost], frames: &[Option<Pose>], id: KeyframeId
 /// `host`'s submitted loops whose two ends `place` can put in a frame.
 fn classed_loops(host: &RobotHost, place: &dyn Fn(KeyframeId) -> Option<[f64; 3]>) -> Vec<PlacedLoop> {
     let mut placed = Vec::new();
-    for (id, &(_, standing)) in &host.loop_standing {
-        let Some(closure) = host.loops.get(id).or_else(|| host.pending_closures.get(id)) else {
-            continue;
-        };
+    for standing in host.standing_loops() {
+        let closure = standing.closure;
         if let (Some(target_m), Some(source_m)) = (place(closure.target), place(closure.source)) {
-            let reason = host.rejection_reasons.get(id).map(String::as_str);
             placed.push(PlacedLoop {
-                class: loop_class(standing, reason),
+                class: loop_class(standing.standing, standing.reason),
                 target_m,
                 source_m,
             });
@@ -94,8 +91,8 @@ pub(crate) fn placed_loops(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec
 /// outside the graph.
 pub fn own_frame_loops(host: &RobotHost) -> Vec<PlacedLoop> {
     classed_loops(host, &|id| {
-        let in_graph = host.plugins.backend.as_ref().and_then(|b| b.graph().pose(id));
-        let pose = if id.robot == host.robot {
+        let in_graph = host.backend_graph().and_then(|graph| graph.pose(id));
+        let pose = if id.robot == host.robot() {
             in_graph.or_else(|| host.keyframe_pose(id.index))
         } else {
             in_graph

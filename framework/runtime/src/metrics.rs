@@ -87,7 +87,7 @@ pub struct RunMetrics {
 pub(crate) fn associated(host: &RobotHost) -> (Vec<Pose>, Vec<Pose>) {
     host.optimised_trajectory()
         .iter()
-        .zip(&host.scans)
+        .zip(host.scans())
         .filter_map(|((_, estimate), scan)| scan.ground_truth.map(|truth| (truth, *estimate)))
         .unzip()
 }
@@ -118,18 +118,15 @@ fn trajectory_metrics(truth: &[Pose], estimate: &[Pose]) -> Result<TrajectoryMet
 
 /// `T^α_β` from the β keyframes α's back-end holds, with how many there were.
 pub fn alpha_from_beta(alpha: &RobotHost, beta: &RobotHost) -> Result<(Pose, usize), String> {
-    let backend = alpha
-        .plugins
-        .backend
-        .as_ref()
+    let graph = alpha
+        .backend_graph()
         .ok_or("robot α has no back-end, so it holds no estimate of β's frame")?;
-    let graph = backend.graph();
     let (in_alpha, in_beta): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = beta
-        .keyframes
+        .keyframes()
         .keys()
         .filter_map(|&index| {
             let id = KeyframeId {
-                robot: beta.robot,
+                robot: beta.robot(),
                 index,
             };
             let seen_by_alpha = graph.pose(id)?;
@@ -140,7 +137,8 @@ pub fn alpha_from_beta(alpha: &RobotHost, beta: &RobotHost) -> Result<(Pose, usi
     if in_alpha.is_empty() {
         return Err(format!(
             "robot {} accepted no loop with robot {}",
-            alpha.robot, beta.robot
+            alpha.robot(),
+            beta.robot()
         ));
     }
     let fit = umeyama(&in_beta, &in_alpha, false).map_err(|e| e.to_string())?;
@@ -156,8 +154,8 @@ pub fn alpha_frames(robots: &[RobotHost]) -> Vec<Result<(Pose, usize), String>> 
     robots
         .iter()
         .map(|robot| {
-            if robot.robot == alpha.robot {
-                Ok((Pose::identity(), robot.keyframes.len()))
+            if robot.robot() == alpha.robot() {
+                Ok((Pose::identity(), robot.keyframes().len()))
             } else {
                 alpha_from_beta(alpha, robot)
             }
@@ -186,7 +184,7 @@ fn alignment_metrics(
     .map_err(|e| e.to_string())?;
     let beta_path_m = path_length_m(&gt_beta).max(f64::MIN_POSITIVE);
     Ok(AlignmentMetrics {
-        alpha: alpha.robot.0,
+        alpha: alpha.robot().0,
         shared_keyframes,
         beta_alignment_percent_of_path: 100.0 * result.beta_alignment_error.translation_m / beta_path_m,
         beta_alignment_error: result.beta_alignment_error,
@@ -203,28 +201,28 @@ fn robot_metrics(
     let (truth, estimate) = associated(host);
     let trajectory = if truth.len() >= 3 {
         trajectory_metrics(&truth, &estimate)
-            .map_err(|reason| tracing::warn!(robot = %host.robot, %reason, "no ATE"))
+            .map_err(|reason| tracing::warn!(robot = %host.robot(), %reason, "no ATE"))
             .ok()
     } else {
         None
     };
     let (alignment, alignment_unavailable) = match robots.first() {
-        Some(alpha) if alpha.robot != host.robot => match alignment_metrics(alpha, host, frame) {
+        Some(alpha) if alpha.robot() != host.robot() => match alignment_metrics(alpha, host, frame) {
             Ok(metrics) => (Some(metrics), None),
             Err(reason) => (None, Some(reason)),
         },
         _ => (None, None),
     };
-    let counters = host.protocol.counters().snapshot();
+    let counters = host.protocol().counters().snapshot();
     let bytes_sent_by_kind: BTreeMap<String, u64> = counters
         .sent
         .iter()
         .map(|(kind, tally)| (kind.clone(), tally.bytes))
         .collect();
     RobotMetrics {
-        robot: host.robot.0,
-        scans: host.scans.len(),
-        keyframes: host.keyframes.len(),
+        robot: host.robot().0,
+        scans: host.scans().len(),
+        keyframes: host.keyframes().len(),
         trajectory,
         alignment,
         alignment_unavailable,

@@ -64,10 +64,10 @@ impl Observers {
     /// `scans_before`, an optimisation when its count grew past `optimizations_before`.
     pub(crate) fn after_step(&mut self, host: &RobotHost, scans_before: usize, optimizations_before: u64) {
         let (scanned, optimised) = (
-            host.scans.len() > scans_before,
-            host.optimizations > optimizations_before,
+            host.scans().len() > scans_before,
+            host.optimizations() > optimizations_before,
         );
-        for observer in self.of(host.robot) {
+        for observer in self.of(host.robot()) {
             if scanned {
                 observer.scan(host);
             }
@@ -80,7 +80,7 @@ impl Observers {
     /// Tells every robot's observers that the run ended (after the final optimisation).
     pub(crate) fn finished(&mut self, hosts: &[RobotHost]) {
         for host in hosts {
-            for observer in self.of(host.robot) {
+            for observer in self.of(host.robot()) {
                 observer.optimized(host);
                 observer.finished(host);
             }

@@ -32,7 +32,7 @@ fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), RuntimeE
 }
 
 fn write_trajectories(folder: &Path, robot: &RobotHost) -> Result<(), RuntimeError> {
-    let robot_folder = folder.join(format!("robot{}", robot.robot.0));
+    let robot_folder = folder.join(format!("robot{}", robot.robot().0));
     std::fs::create_dir_all(&robot_folder).map_err(|e| output_error(&robot_folder, e))?;
     let trajectory = robot.optimised_trajectory();
     if !trajectory.is_empty() {
@@ -43,7 +43,7 @@ fn write_trajectories(folder: &Path, robot: &RobotHost) -> Result<(), RuntimeErr
         write_kitti_poses(&kitti, &poses).map_err(|e| output_error(&kitti, e))?;
     }
     let truth: Vec<(u64, Pose)> = robot
-        .scans
+        .scans()
         .iter()
         .filter_map(|s| s.ground_truth.map(|t| (s.stamp_nanos, t)))
         .collect();

@@ -79,8 +79,8 @@ pub(crate) fn start_process_feeds(fleet: &mut Fleet) -> Result<(), RuntimeError>
         let feed = ProcessFeed::start(StageCommand {
             exe: exe.clone(),
             config_path: config_path.clone(),
-            robot: robot.robot,
-            namespace: namespace(&base, robot.robot),
+            robot: robot.robot(),
+            namespace: namespace(&base, robot.robot()),
         })?;
         robot.feed = Some(Box::new(feed));
     }

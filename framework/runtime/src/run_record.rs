@@ -73,7 +73,9 @@ pub fn write_run_record(
     let path = folder.join("run.mcap");
     let writer = McapWriter::create(&path).map_err(|e| output_error(&path, e))?;
     let mut record = Record { writer };
-    let stamps = robots.iter().flat_map(|r| r.scans.iter().map(|s| s.stamp_nanos));
+    let stamps = robots
+        .iter()
+        .flat_map(|r| r.scans().iter().map(|s| s.stamp_nanos));
     let (first_nanos, last_nanos) = stamps.fold((u64::MAX, 0), |(lo, hi), s| (lo.min(s), hi.max(s)));
     let first_nanos = first_nanos.min(last_nanos);
 
@@ -85,7 +87,7 @@ pub fn write_run_record(
             Some(FrameTransform {
                 stamp_nanos: first_nanos,
                 parent: "map".to_owned(),
-                child: format!("robot{}/map", robot.robot.0),
+                child: format!("robot{}/map", robot.robot().0),
                 parent_from_child: pose_to_wire(frame.as_ref()?),
             })
         })
@@ -121,7 +123,7 @@ fn write_robot(
     voxel_m: f32,
     last_nanos: u64,
 ) -> Result<(), RuntimeError> {
-    let name = format!("robot{}", robot.robot.0);
+    let name = format!("robot{}", robot.robot().0);
     let (map_frame, odom_frame, sensor_frame) = (
         format!("{name}/map"),
         format!("{name}/odom"),
@@ -129,7 +131,7 @@ fn write_robot(
     );
     let odometry = record.topic_of(&format!("/{name}/odometry"), WrittenType::Odometry)?;
     let optimised = robot.optimised_trajectory();
-    for (sequence, (scan, (_, corrected))) in robot.scans.iter().zip(&optimised).enumerate() {
+    for (sequence, (scan, (_, corrected))) in robot.scans().iter().zip(&optimised).enumerate() {
         let pose = pose_to_wire(&scan.world_from_sensor);
         let frames = (odom_frame.as_str(), sensor_frame.as_str());
         let message = encode::odometry(
@@ -160,7 +162,7 @@ fn write_robot(
     }
 
     let keyframes = record.topic_of(&format!("/{name}/keyframes"), WrittenType::PointCloud2)?;
-    for (&index, keyframe) in &robot.keyframes {
+    for (&index, keyframe) in robot.keyframes() {
         let Some(pose) = robot.keyframe_pose(index) else {
             continue;
         };
@@ -184,7 +186,7 @@ fn write_robot(
     record.write(path_topic, last_nanos, &viz::path(last_nanos, &map_frame, &poses))?;
 
     let truth: Vec<(u64, PoseWire)> = robot
-        .scans
+        .scans()
         .iter()
         .filter_map(|scan| Some((scan.stamp_nanos, pose_to_wire(scan.ground_truth.as_ref()?))))
         .collect();

@@ -114,9 +114,9 @@ impl SingleRobot {
                 Some(until) => until,
                 None => {
                     let (finished, stamp) = self.step()?;
-                    progress(self.robot().scans.len());
+                    progress(self.robot().scans().len());
                     if finished {
-                        tracing::info!(robot = %self.robot().robot, linger_s = linger.as_secs_f64(), "source ended; answering peers");
+                        tracing::info!(robot = %self.robot().robot(), linger_s = linger.as_secs_f64(), "source ended; answering peers");
                         *linger_until.insert(Instant::now() + linger)
                     } else {
                         let (at, first_stamp) = *first.get_or_insert((Instant::now(), stamp));
@@ -162,17 +162,17 @@ impl SingleRobot {
         let config = &self.fleet.config;
         let max_scans = config.run.max_scans as usize;
         let robot = &mut self.fleet.robots[0];
-        if max_scans > 0 && robot.scans.len() >= max_scans {
+        if max_scans > 0 && robot.scans().len() >= max_scans {
             robot.finished = true;
         } else {
             let mut outbox = Vec::new();
-            let (scans, optimizations) = (robot.scans.len(), robot.optimizations);
+            let (scans, optimizations) = (robot.scans().len(), robot.optimizations());
             robot.finished = !robot.step(config, &mut outbox)?;
             self.fleet.observers.after_step(robot, scans, optimizations);
-            self.catch_up.record(robot.robot, &outbox);
+            self.catch_up.record(robot.robot(), &outbox);
             send_all(robot, outbox);
         }
-        let stamp = robot.scans.last().map_or(0, |scan| scan.stamp_nanos);
+        let stamp = robot.scans().last().map_or(0, |scan| scan.stamp_nanos);
         Ok((robot.finished, stamp))
     }
 
@@ -215,18 +215,13 @@ impl SingleRobot {
     fn status(&self) -> PeerStatus {
         let robot = self.robot();
         PeerStatus {
-            robot: robot.robot,
-            latest_keyframe: robot.keyframes.keys().next_back().copied(),
+            robot: robot.robot(),
+            latest_keyframe: robot.keyframes().keys().next_back().copied(),
             capabilities: Capabilities {
-                descriptor_kind: robot
-                    .plugins
-                    .descriptor
-                    .as_ref()
-                    .map(|d| d.kind().to_owned())
-                    .unwrap_or_default(),
+                descriptor_kind: robot.descriptor_kind().unwrap_or_default(),
                 descriptor_len: 0,
                 serves_clouds: true,
-                max_message_bytes: robot.protocol.config().max_message_bytes,
+                max_message_bytes: robot.protocol().config().max_message_bytes,
             },
         }
     }

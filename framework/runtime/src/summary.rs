@@ -69,30 +69,32 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
         .windows(2)
         .map(|p| (p[1].1.translation.vector - p[0].1.translation.vector).norm())
         .sum();
-    let truth: Vec<Option<Pose>> = host.scans.iter().map(|s| s.ground_truth).collect();
+    let truth: Vec<Option<Pose>> = host.scans().iter().map(|s| s.ground_truth).collect();
     RobotSummary {
-        robot: host.robot.0,
-        scans: host.scans.len(),
-        scans_read: host.scans_read,
-        scans_skipped: host.skipped_scans.count(),
-        keyframes: host.keyframes.len(),
-        mean_points_per_scan: if host.scans.is_empty() {
+        robot: host.robot().0,
+        scans: host.scans().len(),
+        scans_read: host.scans_read(),
+        scans_skipped: host.scans_skipped(),
+        keyframes: host.keyframes().len(),
+        mean_points_per_scan: if host.scans().is_empty() {
             0.0
         } else {
-            host.points_read as f64 / host.scans.len() as f64
+            host.points_read() as f64 / host.scans().len() as f64
         },
-        stage_ms: host.stage_ms.iter().map(|(k, v)| ((*k).to_owned(), *v)).collect(),
+        stage_ms: host
+            .stage_ms()
+            .iter()
+            .map(|(k, v)| ((*k).to_owned(), *v))
+            .collect(),
         loops: host.loop_stats(),
         estimated_path_length_m: path_length_m,
         ate_first_pose_aligned_m: ate_first_pose_aligned(&trajectory, &truth),
-        messages: host.protocol.counters().snapshot(),
+        messages: host.protocol().counters().snapshot(),
         transport_refusals: host
-            .plugins
-            .transport
-            .as_ref()
+            .transport()
             .map(|transport| transport.refusals())
             .unwrap_or_default(),
-        peer_faults: host.peer_faults.snapshot(),
+        peer_faults: host.peer_faults().snapshot(),
     }
 }
 

@@ -79,7 +79,7 @@ fn fleet(extra: &[&str]) -> Fleet {
 /// Inter-robot loops a robot holds, as unordered keyframe pairs.
 fn inter_loops(fleet: &Fleet, robot: usize) -> BTreeSet<(KeyframeId, KeyframeId)> {
     fleet.robots[robot]
-        .loops
+        .accepted_loops()
         .values()
         .filter(|l| l.target.robot != l.source.robot)
         .map(|l| (l.target.min(l.source), l.target.max(l.source)))
@@ -107,10 +107,10 @@ fn assert_complete_without_duplicates(fleet: &Fleet, summary: &RunSummary) {
     }
     for (index, robot) in fleet.robots.iter().enumerate() {
         assert_eq!(
-            robot.loops.len(),
+            robot.accepted_loops().len(),
             inter_loops(fleet, index).len()
                 + robot
-                    .loops
+                    .accepted_loops()
                     .values()
                     .filter(|l| l.target.robot == l.source.robot)
                     .count(),
@@ -131,8 +131,16 @@ impl Graphs {
     fn of(fleet: &Fleet) -> Self {
         Self {
             loops: all_inter_loops(fleet),
-            keyframes: fleet.robots.iter().map(|r| r.keyframes.len()).collect(),
-            in_backend: fleet.robots.iter().map(|r| r.in_backend.clone()).collect(),
+            keyframes: fleet.robots.iter().map(|r| r.keyframes().len()).collect(),
+            in_backend: fleet
+                .robots
+                .iter()
+                .map(|r| {
+                    (0..fleet.robots.len() as u32)
+                        .flat_map(|peer| r.graph_keyframes_of(RobotId(peer)))
+                        .collect()
+                })
+                .collect(),
         }
     }
 }
@@ -165,10 +173,10 @@ fn thirty_percent_loss_still_finds_inter_robot_loops() {
     // Lost requests and lost replies are asked for again: every candidate got its cloud.
     for robot in &lossy.robots {
         assert!(
-            robot.requested.is_empty() && robot.pending.is_empty(),
-            "robot {} still waits for {:?}",
-            robot.robot,
-            robot.requested
+            !robot.awaits_clouds(),
+            "robot {} still waits for clouds: {:?}",
+            robot.robot(),
+            robot.loop_stats()
         );
     }
     let loops = all_inter_loops(&lossy);

@@ -1,15 +1,14 @@
 //! Acting on the messages a robot receives from its peers (odometry chains, descriptors, cloud requests
 //! and replies, loops), and asking again for clouds that did not come.
 
-use std::sync::Arc;
-
 use skid_config::ResolvedConfig;
-use skid_core::slots::{DescriptorBuf, LoopClosure};
-use skid_core::{Cloud, Information, KeyframeId, LoopId, RobotId};
+use skid_core::slots::DescriptorBuf;
+use skid_core::{Cloud, Information, KeyframeId, RobotId};
 use skid_protocol::{CloudMsg, CompressedPoints, Loops, Message, OdomChain, PoseMsg};
 
+use super::RobotHost;
+use super::peer_clouds::CloudRefusal;
 use crate::error::RuntimeError;
-use crate::host::{PendingCandidate, RobotHost};
 use crate::messages::{CLOUD_RESOLUTION_M, cloud_request};
 
 /// Most peer loops waiting for keyframes this robot does not have (yet); more are refused.
@@ -22,16 +21,9 @@ impl RobotHost {
     /// executors still agree.
     pub fn due_cloud_requests(&mut self, period_nanos: u64) -> Vec<Message> {
         let now_nanos = self.now_nanos();
-        let mut again = Vec::new();
-        for (&id, state) in &mut self.requested {
-            let wait_nanos = state.wait_nanos.max(period_nanos);
-            if now_nanos.saturating_sub(state.sent_nanos) >= wait_nanos {
-                state.sent_nanos = now_nanos;
-                state.wait_nanos = (2 * wait_nanos).min(16 * period_nanos);
-                again.push(cloud_request(self.robot, id));
-            }
-        }
-        again
+        let robot = self.robot();
+        let due = self.peer_clouds.due(now_nanos, period_nanos);
+        due.into_iter().map(|id| cloud_request(robot, id)).collect()
     }
 
     /// Acts on one message from a peer; messages that do not make sense are logged and dropped.
@@ -46,8 +38,7 @@ impl RobotHost {
         match message {
             Message::Hello(_) | Message::Heartbeat(_) => {}
             Message::Descriptors(batch) => {
-                let own_kind = self.plugins.descriptor.as_ref().map(|d| d.kind().to_owned());
-                let Some(own_kind) = own_kind else {
+                let Some(own_kind) = self.descriptor_kind() else {
                     return Ok(());
                 };
                 if let Some(stamp) = batch.entries.first().map(|entry| entry.stamp_nanos) {
@@ -100,7 +91,7 @@ impl RobotHost {
             }
             Message::CloudRequest(request) => {
                 for id in request.keyframes.into_iter().filter(|id| id.robot == self.robot) {
-                    let Some(keyframe) = self.keyframes.get(&id.index) else {
+                    let Some(keyframe) = self.own.keyframe(id.index) else {
                         continue;
                     };
                     let Ok(points) =
@@ -120,18 +111,19 @@ impl RobotHost {
                 }
             }
             Message::Cloud(cloud) => {
-                if self.peer_clouds.contains_key(&cloud.keyframe) {
+                match self.peer_clouds.check_wanted(cloud.keyframe) {
+                    Ok(()) => {}
                     // The second answer to a request that was sent again.
-                    return Ok(());
-                }
-                if !self.requested.contains_key(&cloud.keyframe) {
-                    self.peer_faults.record(
-                        self.robot,
-                        from,
-                        "cloud_unrequested",
-                        format_args!("a cloud of keyframe {} that was not requested", cloud.keyframe),
-                    );
-                    return Ok(());
+                    Err(CloudRefusal::AlreadyHeld) => return Ok(()),
+                    Err(CloudRefusal::Unrequested) => {
+                        self.peer_faults.record(
+                            self.robot,
+                            from,
+                            "cloud_unrequested",
+                            format_args!("a cloud of keyframe {} that was not requested", cloud.keyframe),
+                        );
+                        return Ok(());
+                    }
                 }
                 let Ok(points) = cloud.points.decode() else {
                     self.peer_faults.record(
@@ -142,16 +134,7 @@ impl RobotHost {
                     );
                     return Ok(());
                 };
-                self.peer_clouds
-                    .insert(cloud.keyframe, Arc::new(Cloud::new(points)));
-                self.requested.remove(&cloud.keyframe);
-                let ready: Vec<PendingCandidate> = self
-                    .pending
-                    .iter()
-                    .copied()
-                    .filter(|p| p.target == cloud.keyframe)
-                    .collect();
-                self.pending.retain(|p| p.target != cloud.keyframe);
+                let ready = self.peer_clouds.receive(cloud.keyframe, Cloud::new(points));
                 for candidate in ready {
                     self.process_candidate(config, candidate, outbox)?;
                 }
@@ -190,7 +173,7 @@ impl RobotHost {
                 .unwrap_or_else(|| Information::identity() * 1e-4);
             let id = KeyframeId { robot, index };
             self.chains.insert(id, pose, covariance);
-            if let Some(frame) = self.peer_frames.get(&robot).copied() {
+            if let Some(frame) = self.graph.peer_frame(robot) {
                 let guess = self
                     .plugins
                     .backend
@@ -219,7 +202,7 @@ impl RobotHost {
         let _ = outbox;
         for message in loops.accepted {
             let pair = (message.target, message.source);
-            if self.loop_by_pair.contains_key(&pair) {
+            if self.loops.knows_pair(pair) {
                 continue;
             }
             if !self.is_shared_loop(from, pair) {
@@ -231,30 +214,16 @@ impl RobotHost {
             ) else {
                 continue;
             };
-            let id = LoopId(self.next_loop_id);
-            self.next_loop_id += 1;
-            let closure = LoopClosure {
-                id,
-                target: message.target,
-                source: message.source,
-                target_from_source,
-                information,
-            };
-            self.loop_by_pair.insert(pair, id);
-            self.stats.received_from_peers += 1;
+            let closure = self.loops.new_loop(pair, target_from_source, information);
             self.add_loop_to_backend(config, &closure)?;
-            self.loops.insert(id, closure);
+            self.loops.accept_from_peer(closure);
         }
         for pair in loops.retracted {
-            let Some(id) = self.loop_by_pair.get(&pair).copied() else {
-                continue;
-            };
-            if self.loops.remove(&id).is_some() {
-                if let Some(backend) = self.plugins.backend.as_mut() {
-                    // The loop may still be deferred (never added); a refusal is harmless then.
-                    let _ = backend.remove_loop(id);
-                }
-                self.stats.retracted += 1;
+            if let Some(id) = self.loops.retract_from_peer(pair)
+                && let Some(backend) = self.plugins.backend.as_mut()
+            {
+                // The loop may still be deferred (never added); a refusal is harmless then.
+                let _ = backend.remove_loop(id);
             }
         }
         self.optimize(config)
@@ -278,10 +247,10 @@ impl RobotHost {
         } else {
             source
         };
-        if !self.keyframes.contains_key(&own.index) {
+        if self.own.keyframe(own.index).is_none() {
             // A restarted robot hears its peers' loops before it has re-made its keyframes, so such a
             // loop waits (deferred, outside the graph) until the keyframe exists, up to a bound.
-            if self.deferred_loops.len() >= MAX_DEFERRED_LOOPS {
+            if self.graph.deferred_count() >= MAX_DEFERRED_LOOPS {
                 self.peer_faults.record(
                     self.robot,
                     from,
@@ -305,7 +274,7 @@ impl RobotHost {
     /// Warns (once per class limit) when a peer's stamp is far from this robot's newest scan stamp: its
     /// clock is probably off. The stamps are only labels here, so nothing else changes.
     fn check_peer_clock(&mut self, from: RobotId, stamp_nanos: u64) {
-        let Some(own) = self.scans.last().map(|scan| scan.stamp_nanos) else {
+        let Some(own) = self.own.newest_stamp_nanos() else {
             return;
         };
         let offset_nanos = own.abs_diff(stamp_nanos);
@@ -324,7 +293,7 @@ impl RobotHost {
 
     /// Adds deferred loops whose keyframes are now all in the back-end.
     fn retry_deferred_loops(&mut self, config: &ResolvedConfig) -> Result<(), RuntimeError> {
-        let deferred = std::mem::take(&mut self.deferred_loops);
+        let deferred = self.graph.take_deferred();
         for closure in deferred {
             self.add_loop_to_backend(config, &closure)?;
         }

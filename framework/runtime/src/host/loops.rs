@@ -5,11 +5,13 @@
 use nalgebra::{UnitQuaternion, Vector3};
 use skid_config::ResolvedConfig;
 use skid_core::slots::{LoopCandidate, LoopClosure, Verdict};
-use skid_core::{KeyframeId, LoopId, PluginError, Pose, Slot};
+use skid_core::{KeyframeId, PluginError, Pose, Slot};
 
+use super::RobotHost;
+use super::loop_book::LoopEvent;
+use super::peer_clouds::PendingCandidate;
 use crate::error::RuntimeError;
 use crate::graph::HostGraph;
-use crate::host::{LoopStanding, PendingCandidate, RobotHost};
 use crate::settings::loop_information;
 
 impl RobotHost {
@@ -21,14 +23,14 @@ impl RobotHost {
         outbox: &mut Vec<skid_protocol::Message>,
     ) -> Result<(), RuntimeError> {
         let pair = (candidate.target, candidate.source);
-        if self.loop_by_pair.contains_key(&pair) {
-            self.stats.repeated_pair += 1;
+        if self.loops.knows_pair(pair) {
+            self.loops.count(LoopEvent::RepeatedPair);
             return Ok(());
         }
         let (Some(target_cloud), Some(source_cloud)) =
             (self.cloud_of(candidate.target), self.cloud_of(candidate.source))
         else {
-            self.stats.cloud_missing += 1;
+            self.loops.count(LoopEvent::CloudMissing);
             return Ok(());
         };
         let prior = candidate.yaw_hint_rad.map(|yaw| {
@@ -41,16 +43,16 @@ impl RobotHost {
             Some(coarse) => {
                 let started = std::time::Instant::now();
                 let result = coarse.align(target_cloud.view(), source_cloud.view(), prior.as_ref());
-                *self.stage_ms.entry("coarse").or_default() += started.elapsed().as_secs_f64() * 1e3;
+                self.add_stage_ms("coarse", started.elapsed().as_secs_f64() * 1e3);
                 match result {
                     Ok(alignment) if alignment.valid => alignment.target_from_source,
                     Ok(alignment) if config.loops.refine_invalid_coarse && self.plugins.fine.is_some() => {
                         // The verifier judges the refined loop; a wrong one fails its fitness or PCM.
-                        self.stats.coarse_invalid_refined += 1;
+                        self.loops.count(LoopEvent::CoarseInvalidRefined);
                         alignment.target_from_source
                     }
                     Ok(_) | Err(PluginError::InvalidInput(_)) => {
-                        self.stats.coarse_invalid += 1;
+                        self.loops.count(LoopEvent::CoarseInvalid);
                         tracing::debug!(robot = %self.robot, target = %candidate.target, source = %candidate.source, "loop candidate: coarse registration found no valid alignment");
                         return Ok(());
                     }
@@ -69,11 +71,11 @@ impl RobotHost {
                     .fine
                     .as_mut()
                     .map(|fine| fine.refine(&target, &source, &guess));
-                *self.stage_ms.entry("fine").or_default() += started.elapsed().as_secs_f64() * 1e3;
+                self.add_stage_ms("fine", started.elapsed().as_secs_f64() * 1e3);
                 match result {
                     Some(Ok(fine)) if fine.converged => fine.target_from_source,
                     Some(Ok(_)) | Some(Err(PluginError::InvalidInput(_))) => {
-                        self.stats.fine_not_converged += 1;
+                        self.loops.count(LoopEvent::FineNotConverged);
                         tracing::debug!(robot = %self.robot, target = %candidate.target, source = %candidate.source, "loop candidate: fine registration did not converge");
                         return Ok(());
                     }
@@ -83,23 +85,15 @@ impl RobotHost {
             }
             false => guess,
         };
-        let id = LoopId(self.next_loop_id);
-        self.next_loop_id += 1;
-        let closure = LoopClosure {
-            id,
-            target: candidate.target,
-            source: candidate.source,
-            target_from_source,
-            information: loop_information(),
-        };
-        self.loop_by_pair.insert(pair, id);
+        let closure = self.loops.new_loop(pair, target_from_source, loop_information());
+        let id = closure.id;
         let verdict = match self.plugins.verifier.as_mut() {
             Some(verifier) => {
                 let started = std::time::Instant::now();
                 let graph = HostGraph {
                     chains: &self.chains,
                     backend: self.plugins.backend.as_ref().map(|backend| backend.graph()),
-                    loops: &self.loops,
+                    loops: self.loops.accepted(),
                 };
                 let submitted = LoopCandidate {
                     closure: closure.clone(),
@@ -107,7 +101,7 @@ impl RobotHost {
                     source_cloud: source_cloud.view(),
                 };
                 let verdict = verifier.submit(&submitted, &graph);
-                *self.stage_ms.entry("verifier").or_default() += started.elapsed().as_secs_f64() * 1e3;
+                self.add_stage_ms("verifier", started.elapsed().as_secs_f64() * 1e3);
                 verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?
             }
             None => Verdict {
@@ -115,17 +109,8 @@ impl RobotHost {
                 ..Verdict::default()
             },
         };
-        self.loop_standing
-            .insert(id, (closure.is_inter_robot(), LoopStanding::Undecided));
-        self.pending_closures.insert(id, closure);
+        self.loops.submitted(closure);
         self.apply_verdict(config, verdict, outbox)
-    }
-
-    /// Records where one of this robot's own loops now stands.
-    fn set_standing(&mut self, id: LoopId, standing: LoopStanding) {
-        if let Some((_, current)) = self.loop_standing.get_mut(&id) {
-            *current = standing;
-        }
     }
 
     /// Applies a verdict: retracted loops leave the graph, accepted ones enter it, peers are told.
@@ -144,19 +129,14 @@ impl RobotHost {
                 "verifier verdict"
             );
         }
-        for (id, reason) in &verdict.rejected {
-            self.set_standing(*id, LoopStanding::Rejected);
-            self.rejection_reasons.insert(*id, reason.clone());
+        for (id, reason) in verdict.rejected {
+            self.loops.rejected(id, reason);
         }
         let mut changed = false;
         let mut accepted_messages = Vec::new();
         let mut retracted_messages = Vec::new();
         for id in verdict.retracted {
-            if let Some(closure) = self.loops.remove(&id) {
-                self.stats.retracted += 1;
-                self.set_standing(id, LoopStanding::Rejected);
-                self.rejection_reasons
-                    .insert(id, "retracted: no longer consistent with the others".to_owned());
+            if let Some(closure) = self.loops.retract(id) {
                 if let Some(backend) = self.plugins.backend.as_mut() {
                     backend.remove_loop(id).map_err(|e| RuntimeError::Plugin {
                         robot: self.robot,
@@ -166,26 +146,20 @@ impl RobotHost {
                     })?;
                 }
                 if closure.is_inter_robot() {
-                    retracted_messages.push(closure.clone());
+                    retracted_messages.push(closure);
                 }
-                self.pending_closures.insert(id, closure);
                 changed = true;
             }
         }
         for id in verdict.accepted {
-            let Some(closure) = self.pending_closures.remove(&id) else {
+            let Some(closure) = self.loops.take_for_acceptance(id) else {
                 continue;
             };
-            if self.loops.contains_key(&id) {
-                continue;
-            }
             self.add_loop_to_backend(config, &closure)?;
-            self.set_standing(id, LoopStanding::Accepted);
-            self.rejection_reasons.remove(&id);
             if closure.is_inter_robot() {
                 accepted_messages.push(closure.clone());
             }
-            self.loops.insert(id, closure);
+            self.loops.accept(closure);
             changed = true;
         }
         // One message per loop, so each goes to the one peer it concerns.
@@ -228,12 +202,12 @@ impl RobotHost {
                 closure.target_from_source.inverse(),
             )
         };
-        if peer.robot != self.robot && !self.peers_in_backend.contains(&peer.robot) {
+        if peer.robot != self.robot && !self.graph.has_peer(peer.robot) {
             self.add_peer_chain(config, own, peer, &own_from_peer)?;
         }
-        if !self.in_backend.contains(&closure.target) || !self.in_backend.contains(&closure.source) {
+        if !self.graph.contains(closure.target) || !self.graph.contains(closure.source) {
             // A loop to a peer keyframe whose odometry has not arrived yet waits for it.
-            self.deferred_loops.push(closure.clone());
+            self.graph.defer(closure.clone());
             return Ok(());
         }
         let robot = self.robot;
@@ -267,8 +241,7 @@ impl RobotHost {
         };
         // world_self_from_world_peer: where the peer's odometry frame sits in this robot's frame.
         let frame = own_pose * own_from_peer * peer_odometry.inverse();
-        self.peers_in_backend.insert(peer.robot);
-        self.peer_frames.insert(peer.robot, frame);
+        self.graph.place_peer(peer.robot, frame);
         let chain = self.chains.chain(peer.robot);
         for (position, &(index, odometry)) in chain.iter().enumerate() {
             let previous = position.checked_sub(1).map(|p| chain[p]);
@@ -295,7 +268,7 @@ impl RobotHost {
         guess: Pose,
         previous: Option<(u32, Pose, Pose)>,
     ) -> Result<(), RuntimeError> {
-        if self.plugins.backend.is_none() || self.in_backend.contains(&id) {
+        if self.plugins.backend.is_none() || self.graph.contains(id) {
             return Ok(());
         }
         let of_peer = |index| KeyframeId {
@@ -305,7 +278,7 @@ impl RobotHost {
         let mut missing = Vec::new();
         let mut index = id.index;
         while let Some(earlier) = index.checked_sub(1) {
-            if self.in_backend.contains(&of_peer(earlier)) {
+            if self.graph.contains(of_peer(earlier)) {
                 break;
             }
             let Some(pose) = self.chains.pose(of_peer(earlier)) else {
@@ -314,11 +287,7 @@ impl RobotHost {
             missing.push((earlier, pose));
             index = earlier;
         }
-        let frame = self
-            .peer_frames
-            .get(&id.robot)
-            .copied()
-            .unwrap_or_else(Pose::identity);
+        let frame = self.graph.peer_frame(id.robot).unwrap_or_else(Pose::identity);
         for (earlier, pose) in missing.into_iter().rev() {
             let before = earlier
                 .checked_sub(1)
@@ -345,12 +314,12 @@ impl RobotHost {
             plugin: plugin.clone(),
             source,
         };
-        if self.in_backend.contains(&id) {
+        if self.graph.contains(id) {
             return Ok(());
         }
         let previous = previous.filter(|(i, _, _)| {
             i + 1 == id.index
-                && self.in_backend.contains(&KeyframeId {
+                && self.graph.contains(KeyframeId {
                     robot: id.robot,
                     index: *i,
                 })
@@ -359,7 +328,7 @@ impl RobotHost {
             return Ok(());
         };
         backend.add_keyframe(id, guess).map_err(error)?;
-        self.in_backend.insert(id);
+        self.graph.insert(id);
         if let Some((previous_index, previous_pose, pose)) = previous {
             let step = previous_pose.inverse() * pose;
             let covariance = self

@@ -1,0 +1,234 @@
+//! The book of a robot's loops: every loop it registered and submitted to its verifier (with where each
+//! stands now and why a refused one was refused), the loops its peers accepted with it, which keyframe
+//! pairs were tried, and the counters of what became of every candidate.
+
+use std::collections::BTreeMap;
+
+use skid_core::slots::LoopClosure;
+use skid_core::{Information, KeyframeId, LoopId, Pose};
+
+/// What became of this robot's loop candidates. Every candidate ends in exactly one outcome, so the
+/// candidates add up: `candidates_intra + candidates_inter` equals `repeated_pair + cloud_missing +
+/// awaiting_cloud + coarse_invalid + fine_not_converged + accepted_intra + accepted_inter + rejected +
+/// undecided` ([`LoopStats::outcomes`]). The accepted, rejected and undecided counts are the state at the
+/// time of reading (a loop PCM retracts counts as rejected); the last three fields count events.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct LoopStats {
+    pub candidates_intra: usize,
+    pub candidates_inter: usize,
+    /// The same keyframe pair had been registered before.
+    pub repeated_pair: usize,
+    /// A keyframe's cloud was not held (a peer keyframe whose cloud never came).
+    pub cloud_missing: usize,
+    /// Inter-robot candidates still waiting for the peer's cloud.
+    pub awaiting_cloud: usize,
+    /// The coarse registration found no valid alignment.
+    pub coarse_invalid: usize,
+    /// The fine registration did not converge.
+    pub fine_not_converged: usize,
+    /// In this robot's graph, found by this robot.
+    pub accepted_intra: usize,
+    pub accepted_inter: usize,
+    /// Refused by the verifier (truncated MSE or consistency), or accepted and later retracted.
+    pub rejected: usize,
+    /// Submitted to the verifier, which has not decided yet (PCM waits for enough loops of a pair).
+    pub undecided: usize,
+    /// Events: coarse alignments judged invalid but refined anyway (`loops.refine_invalid_coarse`),
+    /// loops retracted, and accepted loops received from peers.
+    pub coarse_invalid_refined: usize,
+    pub retracted: usize,
+    pub received_from_peers: usize,
+}
+
+impl LoopStats {
+    /// The sum of the outcome counts, which equals the number of candidates.
+    pub fn outcomes(&self) -> usize {
+        self.repeated_pair
+            + self.cloud_missing
+            + self.awaiting_cloud
+            + self.coarse_invalid
+            + self.fine_not_converged
+            + self.accepted_intra
+            + self.accepted_inter
+            + self.rejected
+            + self.undecided
+    }
+
+    pub fn candidates(&self) -> usize {
+        self.candidates_intra + self.candidates_inter
+    }
+}
+
+/// Where one of this robot's own loops stands with the verifier.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoopStanding {
+    Accepted,
+    Rejected,
+    Undecided,
+}
+
+/// A candidate's end before the verifier, or an event, counted in [`LoopStats`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum LoopEvent {
+    IntraCandidate,
+    InterCandidate,
+    RepeatedPair,
+    CloudMissing,
+    CoarseInvalid,
+    CoarseInvalidRefined,
+    FineNotConverged,
+}
+
+/// One of this robot's submitted loops as it stands, for the loop lines of the outputs.
+pub struct StandingLoop<'a> {
+    pub closure: &'a LoopClosure,
+    pub standing: LoopStanding,
+    /// Why the verifier refused or retracted it, when it stands rejected.
+    pub reason: Option<&'a str>,
+}
+
+/// Every loop of one robot, with its standing.
+#[derive(Debug, Default)]
+pub(crate) struct LoopBook {
+    /// The accepted loops: the ones in the back-end.
+    accepted: BTreeMap<LoopId, LoopClosure>,
+    /// Loops identified across robots by their keyframe pair.
+    by_pair: BTreeMap<(KeyframeId, KeyframeId), LoopId>,
+    next_id: u64,
+    /// Submitted loops that are not (or no longer) accepted, kept because PCM may accept them later.
+    unaccepted: BTreeMap<LoopId, LoopClosure>,
+    /// Each loop this robot registered and submitted, with whether it is inter-robot.
+    standing: BTreeMap<LoopId, (bool, LoopStanding)>,
+    /// Why the verifier refused (or retracted) each loop that stands rejected.
+    rejection_reasons: BTreeMap<LoopId, String>,
+    /// Event counters; [`LoopBook::stats`] completes them with the loops' current standing.
+    counters: LoopStats,
+}
+
+impl LoopBook {
+    pub(crate) fn count(&mut self, event: LoopEvent) {
+        let counter = match event {
+            LoopEvent::IntraCandidate => &mut self.counters.candidates_intra,
+            LoopEvent::InterCandidate => &mut self.counters.candidates_inter,
+            LoopEvent::RepeatedPair => &mut self.counters.repeated_pair,
+            LoopEvent::CloudMissing => &mut self.counters.cloud_missing,
+            LoopEvent::CoarseInvalid => &mut self.counters.coarse_invalid,
+            LoopEvent::CoarseInvalidRefined => &mut self.counters.coarse_invalid_refined,
+            LoopEvent::FineNotConverged => &mut self.counters.fine_not_converged,
+        };
+        *counter += 1;
+    }
+
+    /// Whether the keyframe pair (target, source) was registered before, here or by the peer.
+    pub(crate) fn knows_pair(&self, pair: (KeyframeId, KeyframeId)) -> bool {
+        self.by_pair.contains_key(&pair)
+    }
+
+    /// A new loop between the pair, with a fresh id; the pair counts as registered from now on.
+    pub(crate) fn new_loop(
+        &mut self,
+        (target, source): (KeyframeId, KeyframeId),
+        target_from_source: Pose,
+        information: Information,
+    ) -> LoopClosure {
+        let id = LoopId(self.next_id);
+        self.next_id += 1;
+        self.by_pair.insert((target, source), id);
+        LoopClosure {
+            id,
+            target,
+            source,
+            target_from_source,
+            information,
+        }
+    }
+
+    /// Records a loop of this robot's own as submitted to the verifier, not yet decided.
+    pub(crate) fn submitted(&mut self, closure: LoopClosure) {
+        self.standing
+            .insert(closure.id, (closure.is_inter_robot(), LoopStanding::Undecided));
+        self.unaccepted.insert(closure.id, closure);
+    }
+
+    fn set_standing(&mut self, id: LoopId, standing: LoopStanding) {
+        if let Some((_, current)) = self.standing.get_mut(&id) {
+            *current = standing;
+        }
+    }
+
+    /// Records the verifier's refusal.
+    pub(crate) fn rejected(&mut self, id: LoopId, reason: String) {
+        self.set_standing(id, LoopStanding::Rejected);
+        self.rejection_reasons.insert(id, reason);
+    }
+
+    /// Takes an accepted loop out of the graph's set; the verifier may accept it again later.
+    pub(crate) fn retract(&mut self, id: LoopId) -> Option<LoopClosure> {
+        let closure = self.accepted.remove(&id)?;
+        self.counters.retracted += 1;
+        self.rejected(id, "retracted: no longer consistent with the others".to_owned());
+        self.unaccepted.insert(id, closure.clone());
+        Some(closure)
+    }
+
+    /// A submitted loop the verifier accepted, to add to the graph; `None` when it is unknown or
+    /// already accepted. [`LoopBook::accept`] records it once it is in.
+    pub(crate) fn take_for_acceptance(&mut self, id: LoopId) -> Option<LoopClosure> {
+        let closure = self.unaccepted.remove(&id)?;
+        (!self.accepted.contains_key(&id)).then_some(closure)
+    }
+
+    /// Records a loop of this robot's own as accepted and in the graph.
+    pub(crate) fn accept(&mut self, closure: LoopClosure) {
+        self.set_standing(closure.id, LoopStanding::Accepted);
+        self.rejection_reasons.remove(&closure.id);
+        self.accepted.insert(closure.id, closure);
+    }
+
+    /// Records a loop a peer accepted with this robot, now in the graph.
+    pub(crate) fn accept_from_peer(&mut self, closure: LoopClosure) {
+        self.counters.received_from_peers += 1;
+        self.accepted.insert(closure.id, closure);
+    }
+
+    /// Takes out a loop the peer retracted; its id when it was in the graph.
+    pub(crate) fn retract_from_peer(&mut self, pair: (KeyframeId, KeyframeId)) -> Option<LoopId> {
+        let id = self.by_pair.get(&pair).copied()?;
+        self.accepted.remove(&id)?;
+        self.counters.retracted += 1;
+        Some(id)
+    }
+
+    /// The loops in the graph.
+    pub(crate) fn accepted(&self) -> &BTreeMap<LoopId, LoopClosure> {
+        &self.accepted
+    }
+
+    /// This robot's submitted loops, each with its standing.
+    pub(crate) fn standings(&self) -> impl Iterator<Item = StandingLoop<'_>> {
+        self.standing.iter().filter_map(|(id, &(_, standing))| {
+            let closure = self.accepted.get(id).or_else(|| self.unaccepted.get(id))?;
+            Some(StandingLoop {
+                closure,
+                standing,
+                reason: self.rejection_reasons.get(id).map(String::as_str),
+            })
+        })
+    }
+
+    /// The counters with the accepted, rejected and undecided counts as they stand now, and the
+    /// candidates still waiting for a cloud.
+    pub(crate) fn stats(&self, awaiting_cloud: usize) -> LoopStats {
+        let mut stats = self.counters.clone();
+        for (inter, standing) in self.standing.values() {
+            match (standing, inter) {
+                (LoopStanding::Accepted, true) => stats.accepted_inter += 1,
+                (LoopStanding::Accepted, false) => stats.accepted_intra += 1,
+                (LoopStanding::Rejected, _) => stats.rejected += 1,
+                (LoopStanding::Undecided, _) => stats.undecided += 1,
+            }
+        }
+        stats.awaiting_cloud = awaiting_cloud;
+        stats
+    }
+}
