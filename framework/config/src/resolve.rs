@@ -5,22 +5,47 @@ use std::collections::BTreeMap;
 
 use figment::error::Kind;
 use figment::{Figment, Source};
-use skid_core::{Params, Registry, Slot};
+use skid_core::{Params, ParsedParams, Registry, Slot};
 
 use crate::schema::{AUTO_PLUGIN, MAX_ROBOTS, NONE_PLUGIN, RawConfig, RawSlot};
 use crate::{ConfigError, DeploySection, LoopsSection, OutputSection, RunSection};
 
-/// One slot after validation: the selected plugin and its complete parameters (defaults filled in).
+/// One slot after validation: the selected plugin, its complete parameters (defaults filled in) and,
+/// unless the slot is empty, those parameters parsed and checked, from which every robot's instance is
+/// built.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ResolvedSlot {
     pub plugin: String,
     pub params: Params,
+    pub parsed: Option<ParsedParams>,
 }
 
 impl ResolvedSlot {
     /// True when the slot is left empty (`plugin = "none"`).
     pub fn is_none(&self) -> bool {
         self.plugin == NONE_PLUGIN
+    }
+
+    /// Builds an instance of the selected plugin from the parameters parsed at load time (a slot put
+    /// together by hand, without them, is parsed here).
+    pub fn build<T: ?Sized + 'static>(
+        &self,
+        table: &skid_core::SlotTable<T>,
+        context: &skid_core::PluginContext,
+    ) -> Result<Box<T>, skid_core::PluginError> {
+        match &self.parsed {
+            Some(parsed) => table.build(parsed, context),
+            None => table.create(&self.plugin, &self.params, context),
+        }
+    }
+
+    /// An empty slot.
+    pub fn none() -> Self {
+        Self {
+            plugin: NONE_PLUGIN.to_owned(),
+            params: Params::default(),
+            parsed: None,
+        }
     }
 }
 
@@ -38,12 +63,9 @@ impl ResolvedConfig {
     /// The resolved table of a slot (every slot is present after resolution).
     pub fn slot(&self, slot: Slot) -> &ResolvedSlot {
         static NONE: std::sync::OnceLock<ResolvedSlot> = std::sync::OnceLock::new();
-        self.slots.get(&slot).unwrap_or_else(|| {
-            NONE.get_or_init(|| ResolvedSlot {
-                plugin: NONE_PLUGIN.to_owned(),
-                params: Params::default(),
-            })
-        })
+        self.slots
+            .get(&slot)
+            .unwrap_or_else(|| NONE.get_or_init(ResolvedSlot::none))
     }
 
     /// The effective configuration as TOML: run, deploy, and each slot with only its selected plugin's
@@ -126,28 +148,10 @@ pub(crate) fn resolve(
             ),
         ));
     }
-    if let Err(reason) = raw.deploy.validate(raw.run.robots) {
-        let key = if reason.starts_with("deploy.robot") {
-            "deploy.robot"
-        } else if reason.starts_with("deploy.playback_speed") {
-            "deploy.playback_speed"
-        } else {
-            "deploy.linger_s"
-        };
-        return Err(invalid(figment, key, reason));
-    }
-    if let Err(reason) = raw.output.validate() {
-        // The message starts with the key it is about.
-        let key = [
-            "output.ros2_voxel_m",
-            "output.ros2_domain_id",
-            "output.ros2_connect",
-        ]
-        .into_iter()
-        .find(|key| reason.starts_with(key))
-        .unwrap_or("output.record_voxel_m");
-        return Err(invalid(figment, key, reason));
-    }
+    raw.deploy
+        .validate(raw.run.robots)
+        .and_then(|()| raw.output.validate())
+        .map_err(|error| invalid(figment, error.key, error.message))?;
     let mut slots = BTreeMap::new();
     for slot in Slot::ALL {
         let resolved = match raw.slot(slot) {
@@ -159,10 +163,7 @@ pub(crate) fn resolve(
                     "missing: every configuration needs a [source] table".into(),
                 ));
             }
-            None => ResolvedSlot {
-                plugin: NONE_PLUGIN.to_owned(),
-                params: Params::default(),
-            },
+            None => ResolvedSlot::none(),
         };
         slots.insert(slot, resolved);
     }
@@ -208,7 +209,21 @@ fn resolve_slot(
         return Err(invalid(figment, &plugin_key, message));
     }
     // Every parameter table must belong to a plugin of this slot and parse as that plugin's parameters,
-    // so a typo in a plugin that is not selected today is still caught.
+    // so a typo in a plugin that is not selected today is still caught. Each table is parsed once: the
+    // selected plugin's, with its defaults filled in, is kept to build every robot's instance from.
+    let parse = |name: &str, params: &Params, key: &str| {
+        registry.parse(slot, name, params).map_err(|error| match error {
+            skid_core::PluginError::Params(param) => {
+                let full = if param.path.is_empty() {
+                    key.to_owned()
+                } else {
+                    format!("{key}.{}", param.path)
+                };
+                invalid(figment, &full, param.message)
+            }
+            other => invalid(figment, key, other.to_string()),
+        })
+    };
     let mut selected_params = None;
     for (name, value) in &table.tables {
         let key = format!("{slot}.{name}");
@@ -236,30 +251,19 @@ fn resolve_slot(
                 ),
             ));
         };
-        let params = Params::new(given.clone());
-        registry
-            .validate(slot, name, &params)
-            .map_err(|error| match error {
-                skid_core::PluginError::Params(param) => {
-                    let full = if param.path.is_empty() {
-                        key.clone()
-                    } else {
-                        format!("{key}.{}", param.path)
-                    };
-                    invalid(figment, &full, param.message)
-                }
-                other => invalid(figment, &key, other.to_string()),
-            })?;
         if name == selected {
-            selected_params = Some(merged(info.defaults.table(), given));
+            selected_params = Some(Params::new(merged(info.defaults.table(), given)));
+        } else {
+            parse(name, &Params::new(given.clone()), &key)?;
         }
     }
-    let params = if selected == NONE_PLUGIN {
-        Params::default()
-    } else if selected == AUTO_PLUGIN {
+    if selected == NONE_PLUGIN {
+        return Ok(ResolvedSlot::none());
+    }
+    let params = if selected == AUTO_PLUGIN {
         auto_params(&known, table)
     } else {
-        selected_params.map(Params::new).unwrap_or_else(|| {
+        selected_params.unwrap_or_else(|| {
             known
                 .iter()
                 .find(|info| info.name == selected)
@@ -267,9 +271,19 @@ fn resolve_slot(
                 .unwrap_or_default()
         })
     };
+    // The `auto` plugin's parameters are its candidates' tables, `[slot.candidate]`.
+    let key = if selected == AUTO_PLUGIN {
+        slot.key().to_owned()
+    } else if table.tables.contains_key(selected) {
+        format!("{slot}.{selected}")
+    } else {
+        plugin_key
+    };
+    let parsed = parse(selected, &params, &key)?;
     Ok(ResolvedSlot {
         plugin: selected.to_owned(),
         params,
+        parsed: Some(parsed),
     })
 }
 

@@ -89,28 +89,52 @@ impl Default for DeploySection {
 
 impl DeploySection {
     /// Checks the section against the fleet size; the message names the offending key.
-    pub fn validate(&self, robots: u32) -> Result<(), String> {
+    pub fn validate(&self, robots: u32) -> Result<(), SectionError> {
         if let Some(robot) = self.robot
             && robot >= robots
         {
-            return Err(format!(
-                "deploy.robot = {robot}, but the fleet has {robots} robot(s) (run.robots); expected 0 to {}",
-                robots.saturating_sub(1)
-            ));
+            return SectionError::at(
+                "deploy.robot",
+                format!(
+                    "deploy.robot = {robot}, but the fleet has {robots} robot(s) (run.robots); expected 0 to {}",
+                    robots.saturating_sub(1)
+                ),
+            );
         }
         if !(self.playback_speed.is_finite() && self.playback_speed >= 0.0) {
-            return Err(format!(
-                "deploy.playback_speed = {} must be finite and non-negative (0 = as fast as possible)",
-                self.playback_speed
-            ));
+            return SectionError::at(
+                "deploy.playback_speed",
+                format!(
+                    "deploy.playback_speed = {} must be finite and non-negative (0 = as fast as possible)",
+                    self.playback_speed
+                ),
+            );
         }
         if !(self.linger_s.is_finite() && self.linger_s >= 0.0) {
-            return Err(format!(
-                "deploy.linger_s = {} must be finite and non-negative",
-                self.linger_s
-            ));
+            return SectionError::at(
+                "deploy.linger_s",
+                format!(
+                    "deploy.linger_s = {} must be finite and non-negative",
+                    self.linger_s
+                ),
+            );
         }
         Ok(())
+    }
+}
+
+/// A value of a section that is out of range, with the key it is about.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{key}: {message}")]
+pub struct SectionError {
+    /// The full dotted key.
+    pub key: &'static str,
+    pub message: String,
+}
+
+impl SectionError {
+    fn at(key: &'static str, message: String) -> Result<(), Self> {
+        Err(Self { key, message })
     }
 }
 
@@ -156,31 +180,44 @@ impl Default for OutputSection {
 
 impl OutputSection {
     /// Checks the section; the message names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SectionError> {
         if !(self.record_voxel_m.is_finite() && self.record_voxel_m >= 0.0) {
-            return Err(format!(
-                "output.record_voxel_m = {} must be finite and non-negative (0 keeps every point)",
-                self.record_voxel_m
-            ));
+            return SectionError::at(
+                "output.record_voxel_m",
+                format!(
+                    "output.record_voxel_m = {} must be finite and non-negative (0 keeps every point)",
+                    self.record_voxel_m
+                ),
+            );
         }
         if !(self.ros2_voxel_m.is_finite() && self.ros2_voxel_m > 0.0) {
-            return Err(format!(
-                "output.ros2_voxel_m = {} must be a positive number of metres",
-                self.ros2_voxel_m
-            ));
+            return SectionError::at(
+                "output.ros2_voxel_m",
+                format!(
+                    "output.ros2_voxel_m = {} must be a positive number of metres",
+                    self.ros2_voxel_m
+                ),
+            );
         }
         // rmw_zenoh accepts domain ids up to 232, as DDS does.
         if self.ros2_domain_id > 232 {
-            return Err(format!(
-                "output.ros2_domain_id = {} must be within 0–232",
-                self.ros2_domain_id
-            ));
+            return SectionError::at(
+                "output.ros2_domain_id",
+                format!(
+                    "output.ros2_domain_id = {} must be within 0–232",
+                    self.ros2_domain_id
+                ),
+            );
         }
-        for endpoint in self.ros2_connect.iter().chain(&self.ros2_listen) {
-            if !endpoint.contains('/') {
-                return Err(format!(
-                    "output.ros2_connect / ros2_listen: `{endpoint}` is not a zenoh endpoint like `tcp/192.168.1.10:7447`"
-                ));
+        for (key, endpoints) in [
+            ("output.ros2_connect", &self.ros2_connect),
+            ("output.ros2_listen", &self.ros2_listen),
+        ] {
+            if let Some(endpoint) = endpoints.iter().find(|endpoint| !endpoint.contains('/')) {
+                return SectionError::at(
+                    key,
+                    format!("`{endpoint}` is not a zenoh endpoint like `tcp/192.168.1.10:7447`"),
+                );
             }
         }
         Ok(())
@@ -294,17 +331,20 @@ mod tests {
         deploy.robot = Some(2);
         assert_eq!(deploy.validate(3), Ok(()));
         deploy.robot = Some(3);
-        let message = deploy.validate(3).unwrap_err();
-        assert!(
-            message.contains("deploy.robot = 3") && message.contains("0 to 2"),
-            "{message}"
-        );
+        let error = deploy.validate(3).unwrap_err();
+        assert_eq!(error.key, "deploy.robot");
+        assert!(error.message.contains("0 to 2"), "{error}");
         deploy.robot = Some(0);
         deploy.linger_s = -1.0;
-        assert!(deploy.validate(3).unwrap_err().contains("linger_s"));
+        assert_eq!(deploy.validate(3).unwrap_err().key, "deploy.linger_s");
         deploy.linger_s = 1.0;
         deploy.playback_speed = f64::NAN;
-        assert!(deploy.validate(3).unwrap_err().contains("playback_speed"));
+        assert_eq!(deploy.validate(3).unwrap_err().key, "deploy.playback_speed");
+        let output = OutputSection {
+            ros2_listen: vec!["localhost:7447".into()],
+            ..OutputSection::default()
+        };
+        assert_eq!(output.validate().unwrap_err().key, "output.ros2_listen");
     }
 
     #[test]

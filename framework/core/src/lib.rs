@@ -20,7 +20,8 @@ pub use error::{PluginError, PluginResult};
 pub use ids::{KeyframeId, LoopId, RobotId};
 pub use pose::{Information, Pose};
 pub use registry::{
-    ParamError, Params, PluginContext, PluginEntry, PluginInfo, PluginParams, Registry, Slot, SlotTable,
+    ParamError, Params, ParsedParams, PluginContext, PluginEntry, PluginInfo, PluginParams, Registry, Slot,
+    SlotTable,
 };
 pub use skid_msgs as msgs;
 pub use skid_msgs::{ImuSample, Point, RawPoint};

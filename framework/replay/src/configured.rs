@@ -59,15 +59,11 @@ impl ConfiguredPlugins<'_> {
 impl PluginFactory for ConfiguredPlugins<'_> {
     fn verifier(&self, robot: RobotId) -> PluginResult<Box<dyn Verifier>> {
         let resolved = self.chosen(Slot::Verifier)?;
-        self.registry
-            .verifier
-            .create(&resolved.plugin, &resolved.params, &self.context(robot))
+        resolved.build(&self.registry.verifier, &self.context(robot))
     }
 
     fn backend(&self, robot: RobotId) -> PluginResult<Box<dyn Backend>> {
         let resolved = self.chosen(Slot::Backend)?;
-        self.registry
-            .backend
-            .create(&resolved.plugin, &resolved.params, &self.context(robot))
+        resolved.build(&self.registry.backend, &self.context(robot))
     }
 }

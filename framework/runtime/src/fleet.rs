@@ -44,8 +44,8 @@ pub(crate) fn build<T: ?Sized + 'static>(
     if resolved.is_none() {
         return Ok(None);
     }
-    table
-        .create(&resolved.plugin, &resolved.params, context)
+    resolved
+        .build(table, context)
         .map(Some)
         .map_err(|source| RuntimeError::Plugin {
             robot: context.robot,

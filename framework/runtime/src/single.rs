@@ -58,7 +58,7 @@ impl SingleRobot {
         config
             .deploy
             .validate(config.run.robots)
-            .map_err(SingleRobotError::Config)?;
+            .map_err(|error| SingleRobotError::Config(error.to_string()))?;
         let Some(index) = config.deploy.robot else {
             return Err(SingleRobotError::Config(
                 "deploy.robot is not set: a single-robot run needs the robot's index".into(),

@@ -187,7 +187,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         PLUGIN_NAME,
         "KISS-Matcher global registration: Faster-PFH, mutual matching, k-core pruning, GNC-TLS (Lim et al., ICRA 2025)",
         |config: KissMatcherConfig, context: &PluginContext| {
-            Ok(Box::new(KissMatcher::new(config, context)?) as Box<dyn CoarseRegistration>)
+            Ok(Box::new(KissMatcher::from_checked(config, context)?) as Box<dyn CoarseRegistration>)
         },
     )?;
     registry.coarse.register(entry)
@@ -214,6 +214,12 @@ impl KissMatcher {
         config
             .validate()
             .map_err(|message| PluginError::failed(PLUGIN_NAME, message))?;
+        Self::from_checked(config, context)
+    }
+
+    /// [`KissMatcher::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: KissMatcherConfig, context: &PluginContext) -> PluginResult<Self> {
         Ok(Self {
             pool: thread_pool(PLUGIN_NAME, context.threads)?,
             config,

@@ -131,7 +131,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         PLUGIN_NAME,
         "FPFH + RANSAC global registration, the classic baseline (Rusu et al., ICRA 2009)",
         |config: RansacConfig, context: &PluginContext| {
-            Ok(Box::new(RansacMatcher::new(config, context)?) as Box<dyn CoarseRegistration>)
+            Ok(Box::new(RansacMatcher::from_checked(config, context)?) as Box<dyn CoarseRegistration>)
         },
     )?;
     registry.coarse.register(entry)
@@ -163,6 +163,12 @@ impl RansacMatcher {
         config
             .validate()
             .map_err(|message| PluginError::failed(PLUGIN_NAME, message))?;
+        Self::from_checked(config, context)
+    }
+
+    /// [`RansacMatcher::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: RansacConfig, context: &PluginContext) -> PluginResult<Self> {
         Ok(Self {
             pool: thread_pool(PLUGIN_NAME, context.threads)?,
             seed: context.seed ^ (u64::from(context.robot.0) << 32) ^ 0x7261_6e73,

@@ -191,7 +191,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         NAME,
         "LiDAR-Iris (Wang et al., IROS 2020): height-slice code image, log-Gabor binary template, masked Hamming distance with FFT shift",
         |config: IrisConfig, _context: &PluginContext| {
-            Ok(Box::new(IrisDescriptor::new(config)?) as Box<dyn Descriptor>)
+            Ok(Box::new(IrisDescriptor::from_checked(config)?) as Box<dyn Descriptor>)
         },
     )?;
     registry.descriptor.register(entry)
@@ -205,6 +205,12 @@ pub struct IrisDescriptor {
 impl IrisDescriptor {
     pub fn new(config: IrisConfig) -> PluginResult<Self> {
         config.validate()?;
+        Self::from_checked(config)
+    }
+
+    /// [`IrisDescriptor::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: IrisConfig) -> PluginResult<Self> {
         Ok(Self { config })
     }
 

@@ -143,7 +143,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         NAME,
         "Scan Context (Kim & Kim, IROS 2018): max height per ring x sector; ring-key KD-tree, column-shift cosine distance",
         |config: ScanContextConfig, _context: &PluginContext| {
-            Ok(Box::new(ScanContextDescriptor::new(config)?) as Box<dyn Descriptor>)
+            Ok(Box::new(ScanContextDescriptor::from_checked(config)?) as Box<dyn Descriptor>)
         },
     )?;
     registry.descriptor.register(entry)
@@ -157,6 +157,12 @@ pub struct ScanContextDescriptor {
 impl ScanContextDescriptor {
     pub fn new(config: ScanContextConfig) -> PluginResult<Self> {
         config.validate()?;
+        Self::from_checked(config)
+    }
+
+    /// [`ScanContextDescriptor::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: ScanContextConfig) -> PluginResult<Self> {
         Ok(Self { config })
     }
 

@@ -163,7 +163,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         NAME,
         "SOLiD (Kim et al., RA-L 2024): range/azimuth x elevation point counts weighted by the elevation profile; KD-tree over R-SOLiD, yaw from A-SOLiD",
         |config: SolidConfig, _context: &PluginContext| {
-            Ok(Box::new(SolidDescriptor::new(config)?) as Box<dyn Descriptor>)
+            Ok(Box::new(SolidDescriptor::from_checked(config)?) as Box<dyn Descriptor>)
         },
     )?;
     registry.descriptor.register(entry)
@@ -180,6 +180,12 @@ pub struct SolidDescriptor {
 impl SolidDescriptor {
     pub fn new(config: SolidConfig) -> PluginResult<Self> {
         config.validate()?;
+        Self::from_checked(config)
+    }
+
+    /// [`SolidDescriptor::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: SolidConfig) -> PluginResult<Self> {
         Ok(Self {
             binning: Binning::new(&config),
             occupancy: Mutex::new(occupancy_for(&config)),

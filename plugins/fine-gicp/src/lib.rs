@@ -71,7 +71,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         PLUGIN_NAME,
         "small_gicp-style fine registration: GICP (default), VGICP, point-to-point or point-to-plane ICP",
         |config: GicpConfig, context: &PluginContext| {
-            Ok(Box::new(GicpRegistration::new(config, context)?) as Box<dyn FineRegistration>)
+            Ok(Box::new(GicpRegistration::from_checked(config, context)?) as Box<dyn FineRegistration>)
         },
     )?;
     registry.fine.register(entry)

@@ -145,6 +145,12 @@ impl GicpRegistration {
     /// Validates the configuration and builds the rayon pool of `context.threads` threads.
     pub fn new(config: GicpConfig, context: &PluginContext) -> PluginResult<Self> {
         config.validate()?;
+        Self::from_checked(config, context)
+    }
+
+    /// [`GicpRegistration::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: GicpConfig, context: &PluginContext) -> PluginResult<Self> {
         let threads = context.threads.max(1);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

@@ -35,7 +35,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         "kiss_icp",
         "KISS-ICP LiDAR odometry: deskewing, voxel-hash local map, adaptive threshold, robust point-to-point ICP",
         |config: KissIcpConfig, context: &PluginContext| {
-            Ok(Box::new(KissIcpOdometry::new(config, context)?) as Box<dyn Odometry>)
+            Ok(Box::new(KissIcpOdometry::from_checked(config, context)?) as Box<dyn Odometry>)
         },
     )?;
     registry.odometry.register(entry)

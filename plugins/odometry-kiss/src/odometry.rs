@@ -63,6 +63,12 @@ impl KissIcpOdometry {
     /// A fresh estimator at the identity, using `context.threads` threads.
     pub fn new(config: KissIcpConfig, context: &PluginContext) -> PluginResult<Self> {
         config.validate()?;
+        Self::from_checked(config, context)
+    }
+
+    /// [`KissIcpOdometry::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: KissIcpConfig, context: &PluginContext) -> PluginResult<Self> {
         Ok(Self {
             parallel: Parallel::new(context.threads)?,
             map: VoxelHashMap::new(config.voxel_size_m, config.max_points_per_voxel),

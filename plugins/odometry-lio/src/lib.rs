@@ -30,7 +30,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         "lio",
         "LiDAR-inertial odometry: iterated error-state Kalman filter (FAST-LIO2 formulation), IMU propagation and deskewing, point-to-plane updates on a voxel-hashed map",
         |config: LioConfig, context: &PluginContext| {
-            Ok(Box::new(LioOdometry::new(config, context)?) as Box<dyn Odometry>)
+            Ok(Box::new(LioOdometry::from_checked(config, context)?) as Box<dyn Odometry>)
         },
     )?;
     registry.odometry.register(entry)

@@ -138,6 +138,12 @@ impl LioOdometry {
     /// A fresh filter; the world frame will be the first scan's sensor frame.
     pub fn new(config: LioConfig, context: &PluginContext) -> PluginResult<Self> {
         skid_core::PluginParams::check(&config).map_err(PluginError::Params)?;
+        Self::from_checked(config, context)
+    }
+
+    /// [`LioOdometry::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: LioConfig, context: &PluginContext) -> PluginResult<Self> {
         let pool = if context.threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()

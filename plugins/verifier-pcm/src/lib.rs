@@ -35,7 +35,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         "pcm",
         "Truncated-MSE fitness, then pairwise consistency maximisation (exact incremental max clique)",
         |config: PcmConfig, _context: &PluginContext| {
-            Ok(Box::new(PcmVerifier::new(config)?) as Box<dyn Verifier>)
+            Ok(Box::new(PcmVerifier::from_checked(config)) as Box<dyn Verifier>)
         },
     )?;
     registry.verifier.register(pcm)?;
@@ -43,7 +43,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
         "gnc",
         "Truncated-MSE fitness only; outliers left to GNC-TLS in the back-end (robust = \"gnc\")",
         |config: GncConfig, _context: &PluginContext| {
-            Ok(Box::new(GncVerifier::new(config)?) as Box<dyn Verifier>)
+            Ok(Box::new(GncVerifier::from_checked(config)?) as Box<dyn Verifier>)
         },
     )?;
     registry.verifier.register(gnc)

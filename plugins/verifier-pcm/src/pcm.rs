@@ -115,13 +115,18 @@ pub struct Pcm {
 impl Pcm {
     pub fn new(params: PcmParams) -> Result<Self, String> {
         params.validate()?;
+        Ok(Self::from_checked(params))
+    }
+
+    /// [`Pcm::new`] for parameters checked already (the registry checks them once, at load time).
+    pub(crate) fn from_checked(params: PcmParams) -> Self {
         let threshold = chi2_quantile(6, params.consistency_probability);
-        Ok(Self {
+        Self {
             params,
             threshold,
             groups: BTreeMap::new(),
             known: BTreeSet::new(),
-        })
+        }
     }
 
     /// The squared-Mahalanobis threshold in use.

@@ -62,11 +62,20 @@ impl PcmVerifier {
             .fitness
             .validate()
             .map_err(|e| PluginError::failed("pcm", e))?;
-        let pcm = Pcm::new(config.consistency).map_err(|e| PluginError::failed("pcm", e))?;
-        Ok(Self {
+        config
+            .consistency
+            .validate()
+            .map_err(|e| PluginError::failed("pcm", e))?;
+        Ok(Self::from_checked(config))
+    }
+
+    /// [`PcmVerifier::new`] for a configuration the registry has checked already (it is checked once,
+    /// when the configuration is loaded).
+    pub(crate) fn from_checked(config: PcmConfig) -> Self {
+        Self {
             fitness: config.fitness,
-            pcm,
-        })
+            pcm: Pcm::from_checked(config.consistency),
+        }
     }
 
     /// The PCM state (accepted loops, threshold).
@@ -126,6 +135,12 @@ impl GncVerifier {
             .fitness
             .validate()
             .map_err(|e| PluginError::failed("gnc", e))?;
+        Self::from_checked(config)
+    }
+
+    /// [`GncVerifier::new`] for a configuration the registry has checked already (it is checked once, when
+    /// the configuration is loaded).
+    pub(crate) fn from_checked(config: GncConfig) -> PluginResult<Self> {
         Ok(Self {
             fitness: config.fitness,
         })

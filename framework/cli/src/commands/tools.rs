@@ -154,13 +154,9 @@ pub fn odometry(registry: &Registry, folder: &Path, out: Option<&Path>, layers: 
         bail!("no odometry configured: set odometry.plugin");
     }
     let context = context();
-    let source = registry
-        .source
-        .create(source_name, &config.slot(Slot::Source).params, &context)?;
+    let source = config.slot(Slot::Source).build(&registry.source, &context)?;
     let context = context.after_source(source.as_ref());
-    let odometry = registry
-        .odometry
-        .create(&odometry_name, &config.slot(Slot::Odometry).params, &context)?;
+    let odometry = config.slot(Slot::Odometry).build(&registry.odometry, &context)?;
     // The same front-end as `skid run`, so a scan the odometry cannot use is skipped here as it is there.
     let mut front_end = skid_runtime::FrontEnd {
         source,

@@ -4,11 +4,13 @@
 pub mod check;
 pub mod docs;
 mod params;
+mod parsed;
 mod table;
 
 pub use check::PluginParams;
 pub use docs::{ParamDocs, param_docs};
 pub use params::Params;
+pub use parsed::ParsedParams;
 
 pub use crate::error::ParamError;
 pub use crate::slot::Slot;
@@ -125,17 +127,22 @@ impl Registry {
         Slot::ALL.iter().flat_map(|&slot| self.infos(slot)).collect()
     }
 
-    /// Checks `params` against the named plugin's parameter type without constructing it.
-    pub fn validate(&self, slot: Slot, name: &str, params: &Params) -> Result<(), PluginError> {
+    /// Parses and checks `params` for the named plugin, without building it.
+    pub fn parse(&self, slot: Slot, name: &str, params: &Params) -> Result<ParsedParams, PluginError> {
         match slot {
-            Slot::Source => self.source.validate(name, params),
-            Slot::Odometry => self.odometry.validate(name, params),
-            Slot::Descriptor => self.descriptor.validate(name, params),
-            Slot::Coarse => self.coarse.validate(name, params),
-            Slot::Fine => self.fine.validate(name, params),
-            Slot::Verifier => self.verifier.validate(name, params),
-            Slot::Backend => self.backend.validate(name, params),
-            Slot::Transport => self.transport.validate(name, params),
+            Slot::Source => self.source.parse(name, params),
+            Slot::Odometry => self.odometry.parse(name, params),
+            Slot::Descriptor => self.descriptor.parse(name, params),
+            Slot::Coarse => self.coarse.parse(name, params),
+            Slot::Fine => self.fine.parse(name, params),
+            Slot::Verifier => self.verifier.parse(name, params),
+            Slot::Backend => self.backend.parse(name, params),
+            Slot::Transport => self.transport.parse(name, params),
         }
+    }
+
+    /// Checks `params` against the named plugin's parameter type without building it.
+    pub fn validate(&self, slot: Slot, name: &str, params: &Params) -> Result<(), PluginError> {
+        self.parse(slot, name, params).map(drop)
     }
 }

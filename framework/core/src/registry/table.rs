@@ -1,13 +1,15 @@
-//! One slot's table of plugins: name, summary, default parameters and constructor.
+//! One slot's table of plugins: name, summary, default parameters, and the two steps that make an
+//! instance: parsing and checking the parameters (once per configuration) and building from the parsed
+//! value (once per robot).
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use super::{ParamDocs, ParamError, Params, PluginContext, PluginParams, Slot, param_docs};
+use super::{ParamDocs, ParamError, Params, ParsedParams, PluginContext, PluginParams, Slot, param_docs};
 use crate::PluginError;
 
-type Constructor<T> = Arc<dyn Fn(&Params, &PluginContext) -> Result<Box<T>, PluginError> + Send + Sync>;
-type Validator = Arc<dyn Fn(&Params) -> Result<(), ParamError> + Send + Sync>;
+type Builder<T> = Arc<dyn Fn(&ParsedParams, &PluginContext) -> Result<Box<T>, PluginError> + Send + Sync>;
+type Parser = Arc<dyn Fn(&Params) -> Result<ParsedParams, ParamError> + Send + Sync>;
 
 /// A registered plugin for a slot whose trait object type is `T`.
 pub struct PluginEntry<T: ?Sized> {
@@ -16,8 +18,8 @@ pub struct PluginEntry<T: ?Sized> {
     origin: String,
     defaults: Params,
     docs: ParamDocs,
-    validate: Validator,
-    construct: Constructor<T>,
+    parse: Parser,
+    build: Builder<T>,
 }
 
 impl<T: ?Sized> Clone for PluginEntry<T> {
@@ -28,23 +30,25 @@ impl<T: ?Sized> Clone for PluginEntry<T> {
             origin: self.origin.clone(),
             defaults: self.defaults.clone(),
             docs: self.docs.clone(),
-            validate: Arc::clone(&self.validate),
-            construct: Arc::clone(&self.construct),
+            parse: Arc::clone(&self.parse),
+            build: Arc::clone(&self.build),
         }
     }
 }
 
 impl<T: ?Sized + 'static> PluginEntry<T> {
     /// A built-in plugin whose parameters are the serde type `C` (`deny_unknown_fields`, `Default` = the
-    /// reference values, `check` = the valid ranges). `construct` receives the parsed, checked parameters.
+    /// reference values, `check` = the valid ranges). The parameters are parsed and checked once, by
+    /// [`PluginEntry::parse`]; `construct` receives a copy of that checked value for each instance.
     pub fn new<C, F>(name: &str, summary: &str, construct: F) -> Result<Self, ParamError>
     where
-        C: PluginParams,
+        C: PluginParams + Clone + Send + Sync,
         F: Fn(C, &PluginContext) -> Result<Box<T>, PluginError> + Send + Sync + 'static,
     {
         let defaults = Params::from_config(&C::default())?;
         let keys = defaults.table().clone();
-        let parse_checked = move |params: &Params| -> Result<C, ParamError> {
+        let plugin = name.to_owned();
+        let parse = move |params: &Params| -> Result<ParsedParams, ParamError> {
             let config = params.parse::<C>()?;
             config.check().map_err(|error| {
                 // The keys an error may name: every default, and keys given that have no default (an
@@ -55,25 +59,35 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
                 }
                 error.locate_in(&named)
             })?;
-            Ok(config)
+            Ok(ParsedParams::new(&plugin, params.clone(), Arc::new(config)))
         };
-        let parse_for_construct = parse_checked.clone();
+        let plugin = name.to_owned();
+        let build = move |parsed: &ParsedParams, context: &PluginContext| {
+            let config = parsed
+                .value::<C>()
+                .filter(|_| parsed.plugin() == plugin)
+                .cloned()
+                .ok_or_else(|| {
+                    PluginError::failed(
+                        &plugin,
+                        format!("parameters parsed for `{}`, not for this plugin", parsed.plugin()),
+                    )
+                })?;
+            construct(config, context)
+        };
         Ok(Self {
             name: name.to_owned(),
             summary: summary.to_owned(),
             origin: "built-in".to_owned(),
             defaults,
             docs: param_docs::<C>(),
-            validate: Arc::new(move |params: &Params| parse_checked(params).map(drop)),
-            construct: Arc::new(move |params: &Params, context: &PluginContext| {
-                let config = parse_for_construct(params)?;
-                construct(config, context)
-            }),
+            parse: Arc::new(parse),
+            build: Arc::new(build),
         })
     }
 
-    /// A plugin whose parameters are checked and parsed by the given closures (dynamic plugins, which
-    /// parse their own config string).
+    /// A plugin whose parameters are checked by `validate` and read by `construct` from the table
+    /// itself (dynamic plugins, which parse their own config string).
     pub fn from_parts(
         name: &str,
         summary: &str,
@@ -82,14 +96,21 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
         validate: impl Fn(&Params) -> Result<(), ParamError> + Send + Sync + 'static,
         construct: impl Fn(&Params, &PluginContext) -> Result<Box<T>, PluginError> + Send + Sync + 'static,
     ) -> Self {
+        let plugin = name.to_owned();
+        let parse = move |params: &Params| {
+            validate(params)?;
+            Ok(ParsedParams::new(&plugin, params.clone(), Arc::new(())))
+        };
         Self {
             name: name.to_owned(),
             summary: summary.to_owned(),
             origin: origin.to_owned(),
             defaults,
             docs: ParamDocs::new(),
-            validate: Arc::new(validate),
-            construct: Arc::new(construct),
+            parse: Arc::new(parse),
+            build: Arc::new(move |parsed: &ParsedParams, context: &PluginContext| {
+                construct(parsed.params(), context)
+            }),
         }
     }
 
@@ -97,9 +118,14 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
         &self.name
     }
 
-    /// Builds an instance from parameters (missing keys take their defaults).
-    pub fn construct(&self, params: &Params, context: &PluginContext) -> Result<Box<T>, PluginError> {
-        (self.construct)(params, context)
+    /// Parses and checks parameters (missing keys take their defaults).
+    pub fn parse(&self, params: &Params) -> Result<ParsedParams, ParamError> {
+        (self.parse)(params)
+    }
+
+    /// Builds an instance from parameters parsed by [`PluginEntry::parse`].
+    pub fn build(&self, parsed: &ParsedParams, context: &PluginContext) -> Result<Box<T>, PluginError> {
+        (self.build)(parsed, context)
     }
 }
 
@@ -156,19 +182,26 @@ impl<T: ?Sized + 'static> SlotTable<T> {
         })
     }
 
-    /// Builds the plugin called `name`.
+    /// Parses, checks and builds the plugin called `name` (tools that build one instance; a run parses
+    /// once with [`SlotTable::parse`] and builds each robot's with [`SlotTable::build`]).
     pub fn create(
         &self,
         name: &str,
         params: &Params,
         context: &PluginContext,
     ) -> Result<Box<T>, PluginError> {
-        self.get(name)?.construct(params, context)
+        let entry = self.get(name)?;
+        entry.build(&entry.parse(params)?, context)
     }
 
-    /// Checks parameters for the plugin called `name`.
-    pub fn validate(&self, name: &str, params: &Params) -> Result<(), PluginError> {
-        (self.get(name)?.validate)(params).map_err(PluginError::from)
+    /// Parses and checks parameters for the plugin called `name`.
+    pub fn parse(&self, name: &str, params: &Params) -> Result<ParsedParams, PluginError> {
+        Ok(self.get(name)?.parse(params)?)
+    }
+
+    /// Builds the plugin the parsed parameters are for.
+    pub fn build(&self, parsed: &ParsedParams, context: &PluginContext) -> Result<Box<T>, PluginError> {
+        self.get(parsed.plugin())?.build(parsed, context)
     }
 
     /// Descriptions of every plugin, sorted by name.

@@ -316,7 +316,7 @@ fn registry_robots_share_a_named_hub() {
             .is_err()
     );
     let typo = Params::from_toml_str("hub = \"x\"\nlatncy_ms = 1.0").unwrap();
-    assert!(registry.transport.validate("loopback", &typo).is_err());
+    assert!(registry.transport.parse("loopback", &typo).is_err());
     drop(robots);
     drop(hub);
     assert!(

@@ -61,7 +61,7 @@ fn registry_and_config_checks() {
     let mut registry = Registry::new();
     register(&mut registry).unwrap();
     let typo = Params::from_toml_str("listn = [\"tcp/127.0.0.1:1\"]").unwrap();
-    assert!(registry.transport.validate("zenoh", &typo).is_err());
+    assert!(registry.transport.parse("zenoh", &typo).is_err());
     let nowhere = Params::from_toml_str("listen = []\nconnect = []").unwrap();
     assert!(
         registry
