@@ -5,18 +5,16 @@
 use std::path::{Path, PathBuf};
 
 use skid_core::slots::LoopClosure;
-use skid_core::{KeyframeId, Point, Pose};
+use skid_core::{KeyframeId, Pose};
 use skid_eval::plot;
 use skid_eval::plot::{LoopLine, PlotOptions, RobotTrack, RunPlotData};
 use skid_io::g2o::{Edge, PoseGraph, write_g2o_3d};
 
 use crate::error::{RuntimeError, output_error};
 use crate::host::RobotHost;
+use crate::map_clouds::RobotClouds;
 use crate::metrics::alpha_frames;
 use crate::settings::{information_from_covariance, loop_information};
-
-/// Edge length of the merged map's voxels, metres.
-pub const MAP_VOXEL_M: f32 = 0.5;
 
 /// g2o vertex id of a keyframe: the robot in the millions, so ids stay readable.
 pub fn g2o_vertex_id(id: KeyframeId) -> u64 {
@@ -33,27 +31,6 @@ pub(crate) fn map_frames(fits: &[Result<(Pose, usize), String>]) -> Vec<Option<P
     fits.iter()
         .map(|fit| fit.as_ref().ok().map(|(frame, _)| *frame))
         .collect()
-}
-
-/// The merged, voxel-downsampled map in robot 0's frame, from the robots whose frame is known there.
-pub fn merged_map(robots: &[RobotHost], frames: &[Option<Pose>]) -> Vec<Point> {
-    let mut map: Vec<Point> = Vec::new();
-    for (robot, frame) in robots.iter().zip(frames) {
-        let Some(alpha_from_robot) = frame else { continue };
-        for (&index, keyframe) in robot.keyframes() {
-            let Some(pose) = robot.keyframe_pose(index) else {
-                continue;
-            };
-            let alpha_from_sensor = alpha_from_robot * pose;
-            let cloud = keyframe.cloud.view().transformed(&alpha_from_sensor);
-            map.extend_from_slice(&cloud.points);
-            // Downsample as the map grows so memory stays bounded by the explored volume.
-            if map.len() > 4_000_000 {
-                map = skid_geometry::voxel_downsample(&map, MAP_VOXEL_M);
-            }
-        }
-    }
-    skid_geometry::voxel_downsample(&map, MAP_VOXEL_M)
 }
 
 /// One robot's pose graph: every keyframe its back-end holds (its own and the peers' it was given), the
@@ -132,18 +109,18 @@ pub fn write_pose_graphs(folder: &Path, robots: &[RobotHost]) -> Result<Vec<Path
 /// Everything the run plots show, from the robots' final state: trajectories in each robot's map frame,
 /// where robot 0's frame holds each, ground truth, each robot's keyframe clouds (voxel-downsampled) and
 /// the loops placed in robot 0's frame.
-pub fn run_plot_data(robots: &[RobotHost], frames: &[Option<Pose>]) -> RunPlotData {
+pub(crate) fn run_plot_data(
+    robots: &[RobotHost],
+    clouds: &[RobotClouds],
+    frames: &[Option<Pose>],
+) -> RunPlotData {
     let tracks = robots
         .iter()
+        .zip(clouds)
         .zip(frames)
-        .map(|(robot, frame)| {
-            let mut cloud: Vec<Point> = Vec::new();
-            for (&index, keyframe) in robot.keyframes() {
-                if let Some(pose) = robot.keyframe_pose(index) {
-                    cloud.extend_from_slice(&keyframe.cloud.view().transformed(&pose).points);
-                }
-            }
-            let map_points = skid_geometry::voxel_downsample(&cloud, MAP_VOXEL_M)
+        .map(|((robot, clouds), frame)| {
+            let map_points = clouds
+                .map
                 .iter()
                 .map(|p| [f64::from(p.x), f64::from(p.y), f64::from(p.z)])
                 .collect();
@@ -175,8 +152,13 @@ pub fn run_plot_data(robots: &[RobotHost], frames: &[Option<Pose>]) -> RunPlotDa
 }
 
 /// Writes `trajectories.png`, `errors.png` and `map.png` (see [`skid_eval::plot::write_run_plots`]).
-pub fn write_plots(folder: &Path, robots: &[RobotHost], frames: &[Option<Pose>]) -> Result<(), RuntimeError> {
-    let data = run_plot_data(robots, frames);
+pub(crate) fn write_plots(
+    folder: &Path,
+    robots: &[RobotHost],
+    clouds: &[RobotClouds],
+    frames: &[Option<Pose>],
+) -> Result<(), RuntimeError> {
+    let data = run_plot_data(robots, clouds, frames);
     plot::write_run_plots(folder, &data, &PlotOptions::default()).map_err(|e| output_error(folder, e))?;
     Ok(())
 }

@@ -20,6 +20,7 @@ mod graph;
 mod host;
 mod lockstep;
 mod loop_lines;
+mod map_clouds;
 mod messages;
 mod metrics;
 mod observer;
@@ -34,7 +35,7 @@ mod stop;
 mod summary;
 mod warn_limit;
 
-pub use artifacts::{MAP_VOXEL_M, frames_in_alpha, g2o_vertex_id, merged_map, pose_graph};
+pub use artifacts::{frames_in_alpha, g2o_vertex_id, pose_graph};
 pub use clock::{CLOUD_RETRY_PERIOD, HostClock};
 pub use error::RuntimeError;
 pub use fleet::Fleet;
@@ -42,6 +43,7 @@ pub use frontend::{FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, Odomet
 pub use graph::HostGraph;
 pub use host::{LoopStanding, LoopStats, Plugins, RobotHost, ScanRecord, StandingLoop};
 pub use loop_lines::{LOOP_CLASSES, PlacedLoop, loop_class_of_namespace, own_frame_loops};
+pub use map_clouds::{MAP_VOXEL_M, merged_map};
 pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};
 pub use observer::{HostObserver, Observers};
 pub use outputs::write_outputs;

@@ -9,10 +9,11 @@ use skid_core::Pose;
 use skid_io::ply::{PlyFormat, write_ply};
 use skid_io::trajectory::{StampedPose, write_kitti_poses, write_tum};
 
-use crate::artifacts::{map_frames, merged_map, write_plots, write_pose_graphs};
+use crate::artifacts::{map_frames, write_plots, write_pose_graphs};
 use crate::error::{RuntimeError, output_error};
 use crate::fleet::Fleet;
 use crate::host::RobotHost;
+use crate::map_clouds::{merge_maps, place_clouds};
 use crate::metrics::{RunMetrics, alpha_frames};
 use crate::summary::RunSummary;
 
@@ -70,16 +71,26 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<(PathBuf, Ru
     write_pose_graphs(&folder, &fleet.robots)?;
     let fits = alpha_frames(&fleet.robots);
     let frames = map_frames(&fits);
-    let map = merged_map(&fleet.robots, &frames);
+    // Each keyframe cloud is placed by its optimised pose once, for the map, the plots and the record.
+    let record_voxel_m = fleet
+        .config
+        .output
+        .record
+        .then_some(fleet.config.output.record_voxel_m as f32);
+    let clouds: Vec<_> = fleet
+        .robots
+        .iter()
+        .map(|robot| place_clouds(robot, record_voxel_m))
+        .collect();
+    let map = merge_maps(&clouds, &frames);
     if !map.is_empty() {
         let path = folder.join("map.ply");
         write_ply(&path, &map, PlyFormat::BinaryLittleEndian).map_err(|e| output_error(&path, e))?;
     }
-    write_plots(&folder, &fleet.robots, &frames)?;
+    write_plots(&folder, &fleet.robots, &clouds, &frames)?;
     if fleet.config.output.record {
         let started = std::time::Instant::now();
-        let voxel_m = fleet.config.output.record_voxel_m;
-        let path = crate::run_record::write_run_record(&folder, &fleet.robots, &frames, &map, voxel_m)?;
+        let path = crate::run_record::write_run_record(&folder, &fleet.robots, &clouds, &frames, &map)?;
         let bytes = std::fs::metadata(&path).map_or(0, |m| m.len());
         tracing::info!(
             bytes,

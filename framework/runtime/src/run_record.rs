@@ -28,6 +28,7 @@ use crate::error::RuntimeError;
 use crate::error::output_error;
 use crate::host::RobotHost;
 use crate::loop_lines::{LOOP_CLASSES, placed_loops};
+use crate::map_clouds::RobotClouds;
 
 fn raw_points(points: &[Point]) -> Vec<RawPoint> {
     points
@@ -61,14 +62,15 @@ impl Record {
     }
 }
 
-/// Writes `<folder>/run.mcap` from the robots' final state; `frames` places each robot's map frame in
-/// robot 0's (as [`crate::artifacts::frames_in_alpha`]), `map` is the merged map.
-pub fn write_run_record(
+/// Writes `<folder>/run.mcap` from the robots' final state; `clouds` holds each robot's keyframe clouds
+/// placed in its map frame and thinned for the record, `frames` places each robot's map frame in robot
+/// 0's (as [`crate::artifacts::frames_in_alpha`]), `map` is the merged map.
+pub(crate) fn write_run_record(
     folder: &Path,
     robots: &[RobotHost],
+    clouds: &[RobotClouds],
     frames: &[Option<Pose>],
     map: &[Point],
-    voxel_m: f64,
 ) -> Result<PathBuf, RuntimeError> {
     let path = folder.join("run.mcap");
     let writer = McapWriter::create(&path).map_err(|e| output_error(&path, e))?;
@@ -95,8 +97,8 @@ pub fn write_run_record(
     record.write(tf_static, first_nanos, &viz::tf_message(&placed))?;
 
     let tf = record.viz_topic("/tf", VizType::TfMessage)?;
-    for robot in robots {
-        write_robot(&mut record, tf, robot, voxel_m as f32, last_nanos)?;
+    for (robot, clouds) in robots.iter().zip(clouds) {
+        write_robot(&mut record, tf, robot, clouds, last_nanos)?;
     }
 
     let map_topic = record.topic_of("/map", WrittenType::PointCloud2)?;
@@ -120,7 +122,7 @@ fn write_robot(
     record: &mut Record,
     tf: u16,
     robot: &RobotHost,
-    voxel_m: f32,
+    clouds: &RobotClouds,
     last_nanos: u64,
 ) -> Result<(), RuntimeError> {
     let name = format!("robot{}", robot.robot().0);
@@ -162,18 +164,13 @@ fn write_robot(
     }
 
     let keyframes = record.topic_of(&format!("/{name}/keyframes"), WrittenType::PointCloud2)?;
-    for (&index, keyframe) in robot.keyframes() {
-        let Some(pose) = robot.keyframe_pose(index) else {
-            continue;
-        };
-        let cloud = keyframe.cloud.view().transformed(&pose);
-        let thinned = skid_geometry::voxel_downsample(&cloud.points, voxel_m);
+    for keyframe in &clouds.keyframes {
         let message = encode::point_cloud2(
             Encoding::Cdr,
-            index,
+            keyframe.index,
             keyframe.stamp_nanos,
             &map_frame,
-            &raw_points(&thinned),
+            &raw_points(&keyframe.points),
         );
         record.write(keyframes, keyframe.stamp_nanos, &message)?;
     }
