@@ -52,6 +52,14 @@ pub fn generate(root: &Path) -> Result<String> {
          #else\n\
          #define SKID_ALIGNED(n) __attribute__((aligned(n)))\n\
          #endif\n\n\
+         /* Exports the entry point from the plugin's shared library (default visibility). */\n\
+         #if defined(_WIN32)\n\
+         #define SKID_EXPORT __declspec(dllexport)\n\
+         #elif defined(__GNUC__)\n\
+         #define SKID_EXPORT __attribute__((visibility(\"default\")))\n\
+         #else\n\
+         #define SKID_EXPORT\n\
+         #endif\n\n\
          /* The constants a plugin's library declaration must carry. */\n\
          #define SKID_ABI_VERSION {abi}u\n\
          #define SKID_LAYOUT_FINGERPRINT 0x{fingerprint:016x}ull\n\
@@ -62,7 +70,10 @@ pub fn generate(root: &Path) -> Result<String> {
          #define SKID_LOG_WARN {warn}u\n\
          #define SKID_LOG_INFO {info}u\n\
          #define SKID_LOG_DEBUG {debug}u\n\
-         #define SKID_LOG_TRACE {trace}u\n",
+         #define SKID_LOG_TRACE {trace}u\n\n\
+         #ifdef __cplusplus\n\
+         extern \"C\" {{\n\
+         #endif\n",
         abi = skid_abi::ABI_VERSION,
         fingerprint = skid_msgs::LAYOUT_FINGERPRINT,
         framework = skid_abi::FRAMEWORK_VERSION,
@@ -81,6 +92,7 @@ pub fn generate(root: &Path) -> Result<String> {
                 .to_owned(),
         ),
         include_guard: Some("SKID_PLUGIN_H".to_owned()),
+        trailer: Some(ENTRY_DECLARATION.to_owned()),
         cpp_compat: true,
         after_includes: Some(constants),
         usize_is_size_t: true,
@@ -113,7 +125,75 @@ pub fn generate(root: &Path) -> Result<String> {
         .context("generating the C header with cbindgen")?;
     let mut text = Vec::new();
     bindings.write(&mut text);
-    String::from_utf8(text).context("the generated header is not UTF-8")
+    let text = String::from_utf8(text).context("the generated header is not UTF-8")?;
+    Ok(c_links(&text))
+}
+
+/// The entry point every plugin library exports, and the end of the `extern "C"` block the constants
+/// open. A second inclusion of the header skips it with the rest.
+const ENTRY_DECLARATION: &str = "\
+#ifndef SKID_PLUGIN_ENTRY_DECLARED
+#define SKID_PLUGIN_ENTRY_DECLARED
+/**
+ * The one symbol a plugin library exports, named SKID_ENTRY_SYMBOL: a function (not a data object)
+ * taking no argument and returning a pointer to a SkidLibraryDecl with static storage, which the host
+ * reads for as long as the library is loaded. Define it with SKID_EXPORT in front (C linkage comes from
+ * this declaration, also in C++); the host checks the declaration's abi_version, layout_fingerprint and
+ * every table before it calls anything else.
+ */
+typedef const SkidLibraryDecl *(*SkidEntryFn)(void);
+const SkidLibraryDecl *skid_plugin_entry(void);
+
+#ifdef __cplusplus
+} /* extern \"C\" */
+#endif
+#endif /* SKID_PLUGIN_ENTRY_DECLARED */
+";
+
+/// Rewrites the rustdoc links cbindgen copies from the Rust comments into the C names they stand for:
+/// `[`Status::BUFFER_TOO_SMALL`]` becomes `SkidStatus_BUFFER_TOO_SMALL`, `[`BackendVTable`]` becomes
+/// `SkidBackendVTable`, `[`ABI_VERSION`](crate::ABI_VERSION)` becomes `SKID_ABI_VERSION`, and a link
+/// to a field (`[`plugins`](Self::plugins)`) becomes the field's name.
+fn c_links(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(start) = rest.find("[`") {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + 2..];
+        let Some(end) = after.find("`]") else {
+            out.push_str(&rest[start..]);
+            return out;
+        };
+        let name = &after[..end];
+        let mut tail = &after[end + 2..];
+        let target = tail
+            .strip_prefix('(')
+            .and_then(|t| t.find(')').map(|close| (&t[..close], close)));
+        if let Some((path, close)) = target {
+            tail = &tail[close + 2..];
+            if path.starts_with("Self::") {
+                out.push_str(name);
+                rest = tail;
+                continue;
+            }
+        }
+        out.push_str(&c_name(name));
+        rest = tail;
+    }
+    out.push_str(rest);
+    out
+}
+
+/// The C name of a Rust item of the ABI.
+fn c_name(rust: &str) -> String {
+    match rust.split_once("::") {
+        _ if rust == "ABI_VERSION" => "SKID_ABI_VERSION".to_owned(),
+        Some((owner, item)) if item.chars().all(|c| c.is_ascii_uppercase() || c == '_') => {
+            format!("Skid{owner}_{item}")
+        }
+        Some((owner, item)) => format!("Skid{owner}.{item}"),
+        None => format!("Skid{rust}"),
+    }
 }
 
 /// Writes the header, or with `check` fails when the checked-in one differs from what would be written.

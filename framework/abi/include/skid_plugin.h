@@ -17,6 +17,15 @@
 #define SKID_ALIGNED(n) __attribute__((aligned(n)))
 #endif
 
+/* Exports the entry point from the plugin's shared library (default visibility). */
+#if defined(_WIN32)
+#define SKID_EXPORT __declspec(dllexport)
+#elif defined(__GNUC__)
+#define SKID_EXPORT __attribute__((visibility("default")))
+#else
+#define SKID_EXPORT
+#endif
+
 /* The constants a plugin's library declaration must carry. */
 #define SKID_ABI_VERSION 3u
 #define SKID_LAYOUT_FINGERPRINT 0x06949ccd28bc5544ull
@@ -29,6 +38,10 @@
 #define SKID_LOG_INFO 3u
 #define SKID_LOG_DEBUG 4u
 #define SKID_LOG_TRACE 5u
+
+#ifdef __cplusplus
+extern "C" {
+#endif
 
 
 /**
@@ -88,37 +101,41 @@ typedef bool (*SkidEnabledFn)(uint32_t level, struct SkidAbiStr target);
 typedef SkidStatus (*SkidSetLoggerFn)(SkidLogFn log, SkidEnabledFn enabled);
 
 /**
- * Which slot a plugin fills, and so which table [`PluginDecl::slot_table`] points to.
+ * Which slot a plugin fills, and so which table SkidPluginDecl.slot_table points to.
  */
 typedef uint32_t SkidSlotKind;
 /**
- * The table is a [`SourceVTable`].
+ * The table is a SkidSourceVTable.
  */
 #define SkidSlotKind_SOURCE 1
 /**
- * The table is an [`OdometryVTable`].
+ * The table is an SkidOdometryVTable.
  */
 #define SkidSlotKind_ODOMETRY 2
 /**
- * The table is a [`DescriptorVTable`].
+ * The table is a SkidDescriptorVTable.
  */
 #define SkidSlotKind_DESCRIPTOR 3
 /**
- * The table is a [`CoarseVTable`].
+ * The table is a SkidCoarseVTable.
  */
 #define SkidSlotKind_COARSE 4
 /**
- * The table is a [`FineVTable`].
+ * The table is a SkidFineVTable.
  */
 #define SkidSlotKind_FINE 5
 /**
- * The table is a [`VerifierVTable`].
+ * The table is a SkidVerifierVTable.
  */
 #define SkidSlotKind_VERIFIER 6
 /**
- * The table is a [`BackendVTable`].
+ * The table is a SkidBackendVTable.
  */
 #define SkidSlotKind_BACKEND 7
+/**
+ * Reserved: transports do not cross the C boundary (a robot's network link stays in the host), so
+ * no plugin may declare this kind and it has no table.
+ */
 #define SkidSlotKind_TRANSPORT 8
 
 /**
@@ -158,7 +175,7 @@ typedef struct SkidPluginDecl {
   SkidSlotKind slot_kind;
   /**
    * What the plugin's code tolerates from threads; zero (the padding of ABI 2.0) is
-   * [`Threading::INDEPENDENT_INSTANCES`].
+   * SkidThreading_INDEPENDENT_INSTANCES.
    */
   SkidThreading threading;
   /**
@@ -174,9 +191,9 @@ typedef struct SkidPluginDecl {
    */
   struct SkidAbiStr default_config;
   /**
-   * Points to the slot's function table: a [`SourceVTable`], [`OdometryVTable`], [`DescriptorVTable`],
-   * [`CoarseVTable`], [`FineVTable`], [`VerifierVTable`] or [`BackendVTable`] as
-   * [`slot_kind`](Self::slot_kind) says.
+   * Points to the slot's function table: a SkidSourceVTable, SkidOdometryVTable, SkidDescriptorVTable,
+   * SkidCoarseVTable, SkidFineVTable, SkidVerifierVTable or SkidBackendVTable as
+   * slot_kind says.
    */
   const void *slot_table;
 } SkidPluginDecl;
@@ -186,7 +203,7 @@ typedef struct SkidPluginDecl {
  */
 typedef struct SkidLibraryDecl {
   /**
-   * [`ABI_VERSION`](crate::ABI_VERSION) of the skid-abi the library was built with. Offset 0, forever.
+   * SKID_ABI_VERSION of the skid-abi the library was built with. Offset 0, forever.
    */
   uint32_t abi_version;
   /**
@@ -210,7 +227,7 @@ typedef struct SkidLibraryDecl {
    */
   SkidSetLoggerFn set_logger;
   /**
-   * The number of entries behind [`plugins`](Self::plugins); at least one.
+   * The number of entries behind plugins; at least one.
    */
   size_t plugin_count;
   /**
@@ -428,7 +445,7 @@ typedef SkidStatus (*SkidRejectedLoopsFn)(SkidHandle handle,
 typedef SkidStatus (*SkidDestroyFn)(SkidHandle handle, struct SkidErrorBuf *error);
 
 /**
- * The back-end slot's function table ([`SlotKind::BACKEND`](super::SlotKind::BACKEND)).
+ * The back-end slot's function table (SkidSlotKind_BACKEND).
  */
 typedef struct SkidBackendVTable {
   SkidCreateFn create;
@@ -533,7 +550,7 @@ typedef SkidStatus (*SkidSubmitFn)(SkidHandle handle,
                                    struct SkidErrorBuf *error);
 
 /**
- * The verifier slot's function table ([`SlotKind::VERIFIER`](super::SlotKind::VERIFIER)).
+ * The verifier slot's function table (SkidSlotKind_VERIFIER).
  */
 typedef struct SkidVerifierVTable {
   SkidCreateFn create;
@@ -557,7 +574,7 @@ typedef struct SkidSourceInfo {
 } SkidSourceInfo;
 
 /**
- * Fills a [`SourceInfo`].
+ * Fills a SkidSourceInfo.
  */
 typedef SkidStatus (*SkidSourceInfoFn)(SkidHandle handle,
                                        struct SkidSourceInfo *out,
@@ -647,7 +664,7 @@ typedef SkidStatus (*SkidNextScanFn)(SkidHandle handle,
                                      struct SkidErrorBuf *error);
 
 /**
- * The source slot's function table ([`SlotKind::SOURCE`](super::SlotKind::SOURCE)).
+ * The source slot's function table (SkidSlotKind_SOURCE).
  */
 typedef struct SkidSourceVTable {
   SkidCreateFn create;
@@ -696,7 +713,7 @@ typedef SkidStatus (*SkidRegisterFn)(SkidHandle handle,
                                      struct SkidErrorBuf *error);
 
 /**
- * The odometry slot's function table ([`SlotKind::ODOMETRY`](super::SlotKind::ODOMETRY)).
+ * The odometry slot's function table (SkidSlotKind_ODOMETRY).
  */
 typedef struct SkidOdometryVTable {
   SkidCreateFn create;
@@ -713,7 +730,7 @@ typedef SkidStatus (*SkidDescriptorLenFn)(SkidHandle handle,
 
 /**
  * Describes `count` points into `out` (capacity `capacity` values); stores the length written, or the
- * length needed with [`Status::BUFFER_TOO_SMALL`].
+ * length needed with SkidStatus_BUFFER_TOO_SMALL.
  */
 typedef SkidStatus (*SkidDescribeFn)(SkidHandle handle,
                                      const struct SkidPoint *points,
@@ -784,7 +801,7 @@ typedef SkidStatus (*SkidIndexQueryFn)(SkidHandle index,
 typedef SkidStatus (*SkidIndexLenFn)(SkidHandle index, size_t *out_len, struct SkidErrorBuf *error);
 
 /**
- * The descriptor slot's function table ([`SlotKind::DESCRIPTOR`](super::SlotKind::DESCRIPTOR)). The
+ * The descriptor slot's function table (SkidSlotKind_DESCRIPTOR). The
  * index entries are required even for a plugin without an index: its `new_index` returns null.
  */
 typedef struct SkidDescriptorVTable {
@@ -834,7 +851,7 @@ typedef SkidStatus (*SkidAlignFn)(SkidHandle handle,
                                   struct SkidErrorBuf *error);
 
 /**
- * The coarse registration slot's function table ([`SlotKind::COARSE`](super::SlotKind::COARSE)).
+ * The coarse registration slot's function table (SkidSlotKind_COARSE).
  */
 typedef struct SkidCoarseVTable {
   SkidCreateFn create;
@@ -916,7 +933,7 @@ typedef SkidStatus (*SkidRefineFn)(SkidHandle handle,
 typedef SkidStatus (*SkidDestroyPreparedFn)(SkidHandle prepared, struct SkidErrorBuf *error);
 
 /**
- * The fine registration slot's function table ([`SlotKind::FINE`](super::SlotKind::FINE)).
+ * The fine registration slot's function table (SkidSlotKind_FINE).
  */
 typedef struct SkidFineVTable {
   SkidCreateFn create;
@@ -928,3 +945,20 @@ typedef struct SkidFineVTable {
 } SkidFineVTable;
 
 #endif  /* SKID_PLUGIN_H */
+
+#ifndef SKID_PLUGIN_ENTRY_DECLARED
+#define SKID_PLUGIN_ENTRY_DECLARED
+/**
+ * The one symbol a plugin library exports, named SKID_ENTRY_SYMBOL: a function (not a data object)
+ * taking no argument and returning a pointer to a SkidLibraryDecl with static storage, which the host
+ * reads for as long as the library is loaded. Define it with SKID_EXPORT in front (C linkage comes from
+ * this declaration, also in C++); the host checks the declaration's abi_version, layout_fingerprint and
+ * every table before it calls anything else.
+ */
+typedef const SkidLibraryDecl *(*SkidEntryFn)(void);
+const SkidLibraryDecl *skid_plugin_entry(void);
+
+#ifdef __cplusplus
+} /* extern "C" */
+#endif
+#endif /* SKID_PLUGIN_ENTRY_DECLARED */

@@ -437,6 +437,6 @@ const SkidLibraryDecl kLibrary = {
 }  // namespace
 }  // namespace skid_example
 
-extern "C" __attribute__((visibility("default"))) const SkidLibraryDecl* skid_plugin_entry() {
+SKID_EXPORT const SkidLibraryDecl* skid_plugin_entry(void) {
     return &skid_example::kLibrary;
 }

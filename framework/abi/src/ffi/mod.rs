@@ -153,6 +153,8 @@ impl SlotKind {
     pub const VERIFIER: SlotKind = SlotKind(6);
     /// The table is a [`BackendVTable`].
     pub const BACKEND: SlotKind = SlotKind(7);
+    /// Reserved: transports do not cross the C boundary (a robot's network link stays in the host), so
+    /// no plugin may declare this kind and it has no table.
     pub const TRANSPORT: SlotKind = SlotKind(8);
 }
 

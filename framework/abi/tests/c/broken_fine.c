@@ -164,7 +164,7 @@ static const SkidFineVTable OVERCOUNTING_TABLE = {create, prepare, prepared_poin
 static SkidPluginDecl PLUGINS[2];
 static SkidLibraryDecl LIBRARY;
 
-__attribute__((visibility("default"))) const SkidLibraryDecl *skid_plugin_entry(void) {
+SKID_EXPORT const SkidLibraryDecl *skid_plugin_entry(void) {
     PLUGINS[0].slot_kind = SkidSlotKind_FINE;
 #if defined(SKID_FIXTURE_SERIAL)
     PLUGINS[0].threading = SkidThreading_SERIAL;

@@ -395,3 +395,38 @@ fn a_plugin_pinned_to_its_creating_thread_is_refused_naming_the_library_and_plug
         "{text}"
     );
 }
+
+/// A C file that includes the header (twice) and defines the entry point as the header documents it
+/// compiles as strict C99 and as C++17, every warning an error.
+#[test]
+fn the_header_compiles_as_strict_c99_and_as_cpp17() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let compilers = [
+        (
+            std::env::var("CC").unwrap_or_else(|_| "cc".to_owned()),
+            ["-std=c99", "-x", "c"],
+        ),
+        (
+            std::env::var("CXX").unwrap_or_else(|_| "c++".to_owned()),
+            ["-std=c++17", "-x", "c++"],
+        ),
+    ];
+    for (compiler, language) in compilers {
+        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("strict_header{}.o", language[0]));
+        let output = Command::new(&compiler)
+            .args(language)
+            .args(["-Wall", "-Wextra", "-pedantic", "-Werror", "-c"])
+            .arg("-I")
+            .arg(root.join("include"))
+            .arg("-o")
+            .arg(&out)
+            .arg(root.join("tests/c/strict_header.c"))
+            .output()
+            .unwrap_or_else(|error| panic!("running the compiler `{compiler}`: {error}"));
+        assert!(
+            output.status.success(),
+            "{compiler} {language:?} refused the header:\n{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+}

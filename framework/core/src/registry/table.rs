@@ -10,6 +10,7 @@ use crate::PluginError;
 
 type Builder<T> = Arc<dyn Fn(&ParsedParams, &PluginContext) -> Result<Box<T>, PluginError> + Send + Sync>;
 type Parser = Arc<dyn Fn(&Params) -> Result<ParsedParams, ParamError> + Send + Sync>;
+type Creator<T> = Arc<dyn Fn(&Params, &PluginContext) -> Result<Box<T>, PluginError> + Send + Sync>;
 
 /// A registered plugin for a slot whose trait object type is `T`.
 pub struct PluginEntry<T: ?Sized> {
@@ -20,6 +21,8 @@ pub struct PluginEntry<T: ?Sized> {
     docs: ParamDocs,
     parse: Parser,
     build: Builder<T>,
+    /// Parse and build in one step, for tools that build one instance.
+    create: Creator<T>,
 }
 
 impl<T: ?Sized> Clone for PluginEntry<T> {
@@ -32,6 +35,7 @@ impl<T: ?Sized> Clone for PluginEntry<T> {
             docs: self.docs.clone(),
             parse: Arc::clone(&self.parse),
             build: Arc::clone(&self.build),
+            create: Arc::clone(&self.create),
         }
     }
 }
@@ -61,19 +65,26 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
             })?;
             Ok(ParsedParams::new(&plugin, params.clone(), Arc::new(config)))
         };
-        let plugin = name.to_owned();
-        let build = move |parsed: &ParsedParams, context: &PluginContext| {
-            let config = parsed
-                .value::<C>()
-                .filter(|_| parsed.plugin() == plugin)
-                .cloned()
-                .ok_or_else(|| {
-                    PluginError::failed(
-                        &plugin,
-                        format!("parameters parsed for `{}`, not for this plugin", parsed.plugin()),
-                    )
-                })?;
-            construct(config, context)
+        let parse = Arc::new(parse);
+        let build = {
+            let plugin = name.to_owned();
+            Arc::new(move |parsed: &ParsedParams, context: &PluginContext| {
+                let config = parsed
+                    .value::<C>()
+                    .filter(|_| parsed.plugin() == plugin)
+                    .cloned()
+                    .ok_or_else(|| {
+                        PluginError::failed(
+                            &plugin,
+                            format!("parameters parsed for `{}`, not for this plugin", parsed.plugin()),
+                        )
+                    })?;
+                construct(config, context)
+            })
+        };
+        let create = {
+            let (parse, build) = (Arc::clone(&parse), Arc::clone(&build));
+            Arc::new(move |params: &Params, context: &PluginContext| build(&parse(params)?, context))
         };
         Ok(Self {
             name: name.to_owned(),
@@ -81,13 +92,15 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
             origin: "built-in".to_owned(),
             defaults,
             docs: param_docs::<C>(),
-            parse: Arc::new(parse),
-            build: Arc::new(build),
+            parse,
+            build,
+            create,
         })
     }
 
     /// A plugin whose parameters are checked by `validate` and read by `construct` from the table
-    /// itself (dynamic plugins, which parse their own config string).
+    /// itself (dynamic plugins, which parse their own config string, so `construct` checks them too and
+    /// building one instance directly skips `validate`).
     pub fn from_parts(
         name: &str,
         summary: &str,
@@ -101,6 +114,11 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
             validate(params)?;
             Ok(ParsedParams::new(&plugin, params.clone(), Arc::new(())))
         };
+        let construct = Arc::new(construct);
+        let build = {
+            let construct = Arc::clone(&construct);
+            move |parsed: &ParsedParams, context: &PluginContext| construct(parsed.params(), context)
+        };
         Self {
             name: name.to_owned(),
             summary: summary.to_owned(),
@@ -108,9 +126,8 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
             defaults,
             docs: ParamDocs::new(),
             parse: Arc::new(parse),
-            build: Arc::new(move |parsed: &ParsedParams, context: &PluginContext| {
-                construct(parsed.params(), context)
-            }),
+            build: Arc::new(build),
+            create: Arc::new(move |params: &Params, context: &PluginContext| construct(params, context)),
         }
     }
 
@@ -190,8 +207,7 @@ impl<T: ?Sized + 'static> SlotTable<T> {
         params: &Params,
         context: &PluginContext,
     ) -> Result<Box<T>, PluginError> {
-        let entry = self.get(name)?;
-        entry.build(&entry.parse(params)?, context)
+        (self.get(name)?.create)(params, context)
     }
 
     /// Parses and checks parameters for the plugin called `name`.
