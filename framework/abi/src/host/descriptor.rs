@@ -98,23 +98,34 @@ impl Descriptor for DynDescriptor {
     fn describe(&mut self, cloud: CloudView<'_>) -> PluginResult<DescriptorBuf> {
         let len = self.descriptor_len()?;
         let mut values = vec![0.0_f32; len];
-        let mut result = self.describe_into(cloud, &mut values);
-        // The buffer can only be too small if the plugin's `descriptor_len` was wrong: retry once.
-        if let Ok(Err(needed)) = result {
-            values = vec![0.0_f32; needed];
-            result = self.describe_into(cloud, &mut values);
-        }
-        let written = match result {
+        let plugin = &self.instance.plugin.name;
+        let written = match self.describe_into(cloud, &mut values) {
             Ok(Ok(written)) => written,
             Ok(Err(needed)) => {
                 return Err(PluginError::failed(
-                    &self.instance.plugin.name,
-                    format!("describe keeps asking for a larger buffer ({needed} values)"),
+                    plugin,
+                    format!("describe asked for {needed} values, but descriptor_len declared {len}"),
                 ));
             }
             Err(error) => return Err(self.instance.fail(error)),
         };
-        values.truncate(written);
+        // What crosses the boundary is checked here, so nothing malformed reaches the pipeline: the
+        // declared length, and finite values.
+        if written != len {
+            return Err(PluginError::failed(
+                plugin,
+                format!("describe wrote {written} values, but descriptor_len declared {len}"),
+            ));
+        }
+        if let Some(index) = values.iter().position(|value| !value.is_finite()) {
+            return Err(PluginError::failed(
+                plugin,
+                format!(
+                    "describe returned value {index} = {}; descriptor values must be finite",
+                    values[index]
+                ),
+            ));
+        }
         Ok(DescriptorBuf {
             kind: self.instance.plugin.name.clone(),
             values,

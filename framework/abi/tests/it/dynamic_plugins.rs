@@ -205,6 +205,27 @@ fn libraries_from_another_abi_or_without_entry_or_not_libraries_are_refused() {
 }
 
 #[test]
+fn a_descriptor_with_non_finite_values_is_refused_at_the_boundary_naming_the_plugin() {
+    let mut registry = Registry::new();
+    let plugin = load_library(library("skid-fixture-abi-panics")).unwrap();
+    plugin.register(&mut registry).unwrap();
+    let mut descriptor = registry
+        .descriptor
+        .create(
+            "panicky",
+            &params("panic_in = \"never\"\nnan_values = true"),
+            &PluginContext::default(),
+        )
+        .unwrap();
+    let points = kitti_scan(0);
+    let Err(error) = descriptor.describe(CloudView::new(&points)) else {
+        panic!("a NaN descriptor crossed the boundary");
+    };
+    let text = error.to_string();
+    assert!(text.contains("panicky") && text.contains("finite"), "{text}");
+}
+
+#[test]
 fn a_panicking_plugin_becomes_an_error_and_the_host_keeps_running() {
     let mut registry = Registry::new();
     let plugin = load_library(library("skid-fixture-abi-panics")).unwrap();
