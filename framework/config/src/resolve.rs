@@ -400,6 +400,13 @@ pub(crate) fn from_figment(figment: &Figment, error: figment::Error) -> ConfigEr
         }
         other => other.to_string(),
     };
+    // A value of the wrong type says what serde expected; the fleet size's range is worth saying too.
+    let message =
+        if key == "run.robots" && matches!(error.kind, Kind::InvalidType(..) | Kind::InvalidValue(..)) {
+            format!("{message}: the number of robots, 1 to {MAX_ROBOTS}")
+        } else {
+            message
+        };
     let origin = if key.is_empty() {
         error
             .metadata

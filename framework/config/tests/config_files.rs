@@ -224,6 +224,13 @@ fn a_deploy_robot_outside_the_fleet_names_the_key_and_its_layer() {
 }
 
 #[test]
+fn a_negative_robot_count_names_the_range() {
+    let sets = vec!["run.robots=-3".to_owned()];
+    let error = ConfigSources { sets, ..sources() }.load(&registry()).unwrap_err();
+    assert_invalid(error, "--set run.robots=-3", "run.robots", &["1 to 16"]);
+}
+
+#[test]
 fn switching_plugins_does_not_inherit_the_old_plugin_keys() {
     // The overlay selects `none`, so the default's ground_truth table stays valid but unused.
     let sets = vec!["odometry.plugin=none".to_owned()];

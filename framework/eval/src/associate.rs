@@ -160,7 +160,8 @@ pub fn associate_by_time(
 pub fn associate_by_index(gt: &[Pose], est: &[Pose]) -> Result<Associated, EvalError> {
     if gt.len() != est.len() {
         return Err(EvalError::LengthMismatch {
-            what: "trajectories associated by index",
+            what: "trajectories associated by index (files without stamps, such as KITTI pose files, pair \
+                   pose i with pose i; give both as TUM files, which carry stamps, to associate them by time)",
             left: gt.len(),
             right: est.len(),
         });

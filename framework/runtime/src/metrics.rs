@@ -136,7 +136,7 @@ pub fn alpha_from_beta(alpha: &RobotHost, beta: &RobotHost) -> Result<(Pose, usi
         .unzip();
     if in_alpha.is_empty() {
         return Err(format!(
-            "robot {} accepted no loop with robot {}",
+            "{} accepted no loop with {}",
             alpha.robot(),
             beta.robot()
         ));

@@ -102,6 +102,9 @@ fn bad_input_is_an_error() {
             ..
         })
     ));
+    // The error says why the lengths matter and how to associate by time instead.
+    let error = associate_by_index(&poses, &poses[..2]).unwrap_err().to_string();
+    assert!(error.contains("TUM") && error.contains("by time"), "{error}");
     assert!(matches!(
         associate_by_index(&[], &[]),
         Err(EvalError::TooFew { .. })
