@@ -62,7 +62,21 @@ fn write_trajectories(folder: &Path, robot: &RobotHost) -> Result<(), RuntimeErr
 /// an earlier run of that name whole) and returns that folder with the metrics it wrote.
 pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<(PathBuf, RunMetrics), RuntimeError> {
     let staged = crate::run_folder::begin(&fleet.config)?;
-    let folder = staged.path().to_path_buf();
+    let metrics = write_into(staged.path(), fleet, summary)?;
+    Ok((crate::run_folder::commit(&staged)?, metrics))
+}
+
+/// Writes what a run that stopped early has (trajectories so far, the graphs, the map, the plots, the
+/// record up to the stop, and `summary` marked interrupted) into its `<name>.incomplete/` folder, which
+/// stays incomplete: a complete run appears under the run's name only when it completes.
+pub fn write_partial_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<PathBuf, RuntimeError> {
+    let staged = crate::run_folder::begin(&fleet.config)?;
+    write_into(staged.path(), fleet, summary)?;
+    Ok(staged.path().to_path_buf())
+}
+
+fn write_into(folder: &Path, fleet: &Fleet, summary: &RunSummary) -> Result<RunMetrics, RuntimeError> {
+    let folder = folder.to_path_buf();
     let config_path = folder.join("config.toml");
     std::fs::write(&config_path, fleet.config.to_toml_string()).map_err(|e| output_error(&config_path, e))?;
     for robot in &fleet.robots {
@@ -101,5 +115,5 @@ pub fn write_outputs(fleet: &Fleet, summary: &RunSummary) -> Result<(PathBuf, Ru
     let metrics = RunMetrics::with_frames(&fleet.config.run.name, &fleet.robots, &fits);
     write_json(&folder.join("metrics.json"), &metrics)?;
     write_json(&folder.join("summary.json"), summary)?;
-    Ok((crate::run_folder::commit(&staged)?, metrics))
+    Ok(metrics)
 }

@@ -45,6 +45,10 @@ pub struct RunSummary {
     pub robots: Vec<RobotSummary>,
     pub wall_s: f64,
     pub slots: BTreeMap<String, String>,
+    /// Why the run stopped before its sources ended (a signal, a plugin error); absent for a complete
+    /// run. The outputs of an interrupted run hold what existed at the stop.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interrupted: Option<String>,
 }
 
 impl RunSummary {
@@ -59,6 +63,15 @@ impl RunSummary {
                 .iter()
                 .map(|&slot| (slot.key().to_owned(), fleet.config.slot(slot).plugin.clone()))
                 .collect(),
+            interrupted: None,
+        }
+    }
+
+    /// The summary of a run that stopped early for `reason`, from the robots' state at the stop.
+    pub fn interrupted(fleet: &Fleet, wall_s: f64, reason: &str) -> Self {
+        Self {
+            interrupted: Some(reason.to_owned()),
+            ..Self::of(fleet, wall_s)
         }
     }
 }

@@ -74,6 +74,7 @@ pub fn run(
     tracing::info!(robots = fleet.robots.len(), "plugins built; running");
     let bar = progress_bar(total_scans);
     let mut progress = ProgressLog::new(total_scans);
+    let started = std::time::Instant::now();
     let outcome = fleet.run_lockstep(|scans| {
         bar.set_position(scans as u64);
         progress.update(scans as u64);
@@ -82,7 +83,15 @@ pub fn run(
     let summary = match outcome {
         Ok(summary) => summary,
         Err(error) => {
-            // Stop the front-end processes before marking the run's folder.
+            // What exists at the stop goes into the incomplete folder; then the front-end processes
+            // stop, and the folder is marked with the reason.
+            let reason = error.to_string();
+            let partial =
+                skid_runtime::RunSummary::interrupted(&fleet, started.elapsed().as_secs_f64(), &reason);
+            tracing::info!(%reason, "the run stopped early; writing what it has");
+            if let Err(write_error) = skid_runtime::write_partial_outputs(&fleet, &partial) {
+                tracing::warn!(error = %write_error, "could not write the partial outputs");
+            }
             let config = fleet.config.clone();
             drop(fleet);
             return Err(abandoned(&config, error));

@@ -229,6 +229,19 @@ pub fn odometry(registry: &Registry, folder: &Path, out: Option<&Path>, layers: 
     skid_io::trajectory::write_tum(out.join("trajectory.tum"), &estimate)?;
     let poses: Vec<_> = estimate.iter().map(|p| p.world_from_sensor).collect();
     skid_io::trajectory::write_kitti_poses(out.join("trajectory.kitti"), &poses)?;
+    // The source's ground truth for the same scans, beside the estimate, so `skid eval` takes both.
+    if truth.len() == poses.len() && !truth.is_empty() {
+        let stamped: Vec<_> = estimate
+            .iter()
+            .zip(&truth)
+            .map(|(scan, pose)| skid_io::trajectory::StampedPose {
+                stamp_s: scan.stamp_s,
+                world_from_sensor: *pose,
+            })
+            .collect();
+        skid_io::trajectory::write_tum(out.join("ground_truth.tum"), &stamped)?;
+        skid_io::trajectory::write_kitti_poses(out.join("ground_truth.kitti"), &truth)?;
+    }
     let mut sorted = times_ms.clone();
     sorted.sort_by(f64::total_cmp);
     let at = |q: f64| {

@@ -99,6 +99,11 @@ fn odometry_on_either_bag_equals_odometry_on_the_kitti_folder() {
         &[plain.as_slice(), &["--set", "source.kitti.max_scans=8"]].concat(),
     );
     assert_eq!(kitti.lines().count(), 8);
+    // The source's ground truth is written beside the estimate, one pose per registered scan.
+    for file in ["ground_truth.tum", "ground_truth.kitti"] {
+        let truth = std::fs::read_to_string(dir.path().join("kitti").join(file)).unwrap();
+        assert_eq!(truth.lines().filter(|l| !l.starts_with('#')).count(), 8, "{file}");
+    }
     assert_eq!(odometry(&ros1_bag(), &dir.path().join("ros1"), &plain), kitti);
     assert_eq!(odometry(&mcap_bag(), &dir.path().join("mcap"), &plain), kitti);
     // With deskewing the bags' per-point times are used, identically from both bags.

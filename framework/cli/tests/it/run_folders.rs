@@ -1,6 +1,7 @@
 //! Stopping a run: SIGINT or SIGTERM to `skid run --set deploy.mode=processes` stops its front-end
-//! processes, exits with 128 + the signal, and leaves only `<name>.incomplete/` (with its `INCOMPLETE`
-//! marker and the reason) beside an earlier complete run of the same name, which stays intact; a run that
+//! processes, exits with 128 + the signal, and leaves `<name>.incomplete/` (with its `INCOMPLETE`
+//! marker and the reason, and the outputs as they were at the stop, the summary marked interrupted)
+//! beside an earlier complete run of the same name, which stays intact; a run that
 //! finishes replaces the earlier one whole (no stale `robot2/` from a larger fleet), keeping it aside as
 //! `<name>.previous/` with a warning. `skid sim export`
 //! refuses a non-empty folder unless `--overwrite`, and then replaces it whole.
@@ -139,10 +140,16 @@ fn interrupt_with(signal: &str, number: i32) {
     let partial = out.path().join("stopped.incomplete");
     let marker = std::fs::read_to_string(partial.join("INCOMPLETE")).unwrap();
     assert!(marker.contains(&format!("signal {number}")), "{marker}");
-    assert!(
-        !partial.join("metrics.json").exists(),
-        "the partial run looks complete"
-    );
+    // What existed at the stop is kept: the configuration, the graphs and trajectories so far, and a
+    // summary that says the run was interrupted and why.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(partial.join("summary.json")).unwrap()).unwrap();
+    let why = summary["interrupted"].as_str().unwrap_or_default();
+    assert!(why.contains(&format!("signal {number}")), "{summary}");
+    assert!(partial.join("config.toml").is_file());
+    for robot in ["robot0", "robot1"] {
+        assert!(partial.join(robot).join("pose_graph.g2o").is_file(), "{robot}");
+    }
     assert!(
         !partial.join("stages").exists(),
         "the stage files were left behind"
