@@ -215,6 +215,11 @@ impl RobotHost {
         self.loops.standings()
     }
 
+    /// When the oldest unanswered cloud request was (last) sent, by this host's clock.
+    pub fn oldest_cloud_request_nanos(&self) -> Option<u64> {
+        self.peer_clouds.oldest_request_nanos()
+    }
+
     /// Whether inter-robot candidates still wait for a peer's cloud.
     pub fn awaits_clouds(&self) -> bool {
         self.peer_clouds.waiting() > 0

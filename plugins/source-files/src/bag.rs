@@ -82,7 +82,7 @@ impl BagSource {
         let per_robot = |text: &str| text.replace("{robot}", &robot_text);
         let path = resolve_path(Path::new(&per_robot(&config.path.to_string_lossy())))?;
         let topics = Topics {
-            points: per_robot(&config.points_topic),
+            points: cloud_topic(&path, per_robot(&config.points_topic))?,
             imu: Some(per_robot(&config.imu_topic)).filter(|t| !t.is_empty()),
             ground_truth: Some(per_robot(&config.ground_truth_topic)).filter(|t| !t.is_empty()),
             ground_truth_frame: config.ground_truth_frame.clone(),
@@ -111,6 +111,49 @@ impl BagSource {
             remaining: range.len(),
             sequence: 0,
         })
+    }
+}
+
+/// The cloud topic to read: the configured one when the bag has it; otherwise the bag's only
+/// `sensor_msgs/PointCloud2` topic, said in the log (a driver of another name, `/os_cloud_node/points`).
+/// With none, or several, the choice is the user's: the error lists the candidates.
+fn cloud_topic(path: &Path, configured: String) -> PluginResult<String> {
+    let bag = Bag::open(path).map_err(bag_error)?;
+    let connections = bag.connections();
+    if !bag.connections_complete() || connections.iter().any(|c| c.topic == configured) {
+        return Ok(configured);
+    }
+    let clouds: Vec<&str> = connections
+        .iter()
+        .filter(|c| c.message_type == "sensor_msgs/PointCloud2")
+        .map(|c| c.topic.as_str())
+        .collect();
+    match clouds.as_slice() {
+        [only] => {
+            tracing::info!(
+                bag = %path.display(),
+                configured = %configured,
+                using = %only,
+                "the bag has no topic named as source.bag.points_topic says, and one PointCloud2 topic: reading that"
+            );
+            Ok((*only).to_owned())
+        }
+        [] => Err(PluginError::InvalidInput(format!(
+            "{}: no topic {configured:?} and no sensor_msgs/PointCloud2 topic at all; the bag has: {}",
+            path.display(),
+            connections
+                .iter()
+                .map(|c| format!("{} ({})", c.topic, c.message_type))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+        several => Err(PluginError::InvalidInput(format!(
+            "{}: no topic {configured:?}, and {} PointCloud2 topics to choose from: {}; set \
+             source.bag.points_topic to one",
+            path.display(),
+            several.len(),
+            several.join(", ")
+        ))),
     }
 }
 

@@ -103,7 +103,8 @@ impl Status {
 
 /// Host-allocated buffers into which the plugin copies an error message and, for config errors, the
 /// dotted path of the offending key. The plugin writes at most the capacity (cutting at a character
-/// boundary) and stores the written length; it never allocates or frees these buffers.
+/// boundary) and stores the written length; it never allocates or frees these buffers. The host passes
+/// one, never null, to every call (4096 bytes for the message, 512 for the key).
 #[repr(C)]
 #[derive(Debug)]
 pub struct ErrorBuf {
@@ -268,7 +269,12 @@ impl<F: Copy> NullableFn for Option<F> {
 /// An opaque instance handle, owned by the plugin; the host only passes it back.
 pub type Handle = *mut c_void;
 
-/// Builds an instance from a UTF-8 TOML config string and the host context.
+/// Builds an instance from a UTF-8 TOML config string and the host context. The string is the plugin's
+/// own table from the run's configuration (`[<slot>.<name>]`, without the header), the plugin's
+/// `default_config` laid under it, so every key is present. `skid config check` and the loading of a
+/// configuration call `create` once to check the table and `destroy` the instance straight away: refuse a
+/// bad value with SkidStatus_CONFIG (the key in the error buffer) and start nothing that outlives
+/// `destroy`.
 pub type CreateFn = Option<
     unsafe extern "C" fn(
         config: AbiStr,

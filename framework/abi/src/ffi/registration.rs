@@ -71,7 +71,9 @@ pub struct CoarseResult {
 #[derive(Debug)]
 pub struct FineResult {
     pub target_from_source: AbiTransform,
-    /// The 6×6 information matrix, row-major, translation first.
+    /// The 6×6 information matrix, row-major, of the estimate over a right perturbation
+    /// `target_from_source · Exp(δ)`, δ = (translation x, y, z in metres, rotation x, y, z in radians)
+    /// expressed in the source frame.
     pub information: [f64; 36],
     /// Non-zero when the optimisation converged.
     pub converged: u32,
@@ -83,7 +85,9 @@ pub struct FineResult {
     pub inlier_ratio: f64,
     /// Final value of the plugin's cost.
     pub error: f64,
-    /// Why the alignment did not converge, as a sentence; empty when it converged.
+    /// Why the alignment did not converge, as a sentence; empty when it converged. The host points it
+    /// at a buffer of its own (`ptr`, `capacity`) before `refine`; the plugin writes at most `capacity`
+    /// bytes and sets `len`.
     pub failure: TextBuf,
 }
 

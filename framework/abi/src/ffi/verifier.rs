@@ -26,7 +26,9 @@ pub struct AbiLoop {
     pub target: AbiKeyframeId,
     pub source: AbiKeyframeId,
     pub target_from_source: AbiTransform,
-    /// The 6×6 information matrix, row-major, translation first.
+    /// The 6×6 information matrix, row-major, of the measurement over a right perturbation
+    /// `target_from_source · Exp(δ)`, δ = (translation x, y, z in metres, rotation x, y, z in radians)
+    /// expressed in the source frame.
     pub information: [f64; 36],
 }
 

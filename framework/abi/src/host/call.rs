@@ -176,7 +176,8 @@ pub(crate) fn validate_params(
         .map_err(|error| error.into_param_error(&plugin.name))
 }
 
-/// A copy of `count` values a plugin lent at `pointer`.
+/// A copy of `count` values a plugin lent at `pointer`. A buffer not aligned to `T` (a C plugin's packed
+/// array) is copied value by value with unaligned reads, never read in place.
 ///
 /// # Safety
 ///
@@ -185,6 +186,13 @@ pub(crate) unsafe fn copy_lent<T: Copy>(pointer: *const T, count: usize) -> Vec<
     if count == 0 {
         return Vec::new();
     }
-    // SAFETY: the caller's guarantee.
-    unsafe { std::slice::from_raw_parts(pointer, count) }.to_vec()
+    if pointer.is_aligned() {
+        // SAFETY: the caller's guarantee, and the pointer is aligned.
+        unsafe { std::slice::from_raw_parts(pointer, count) }.to_vec()
+    } else {
+        // SAFETY: the caller's guarantee; each value is read without assuming alignment.
+        (0..count)
+            .map(|index| unsafe { pointer.add(index).read_unaligned() })
+            .collect()
+    }
 }

@@ -114,13 +114,9 @@ impl DescriptorIndex for PluginIndex {
                 .instance
                 .bad_output(format!("index_query: {count} candidates for k = {k}")));
         }
-        let lent = if count == 0 {
-            &[][..]
-        } else {
-            // SAFETY: the plugin lends `count` candidates until its next call; non-null and no more than
-            // `k`, both checked above.
-            unsafe { std::slice::from_raw_parts(candidates, count) }
-        };
+        // SAFETY: the plugin lends `count` candidates until its next call; non-null and no more than `k`,
+        // both checked above.
+        let lent = unsafe { crate::host::call::copy_lent(candidates, count) };
         lent.iter()
             .map(|candidate| {
                 if !candidate.distance.is_finite() {

@@ -35,8 +35,8 @@ pub fn attach(fleet: &mut Fleet, target: &RerunTarget, map_every: u32) -> Result
     }
     .with_context(|| format!("opening the Rerun recording ({target:?})"))?;
     for robot in &fleet.robots {
-        let view = RerunView::new(stream.clone(), robot.robot, map_every);
-        fleet.observers.attach(robot.robot, Box::new(view));
+        let view = RerunView::new(stream.clone(), robot.robot(), map_every);
+        fleet.observers.attach(robot.robot(), Box::new(view));
     }
     tracing::info!(?target, robots = fleet.robots.len(), "logging the run to Rerun");
     Ok(stream)

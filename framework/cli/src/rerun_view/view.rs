@@ -80,7 +80,7 @@ impl RerunView {
 
     fn log_map(&self, host: &RobotHost) {
         let mut points = Vec::new();
-        for (&index, keyframe) in &host.keyframes {
+        for (&index, keyframe) in host.keyframes() {
             if let Some(pose) = host.keyframe_pose(index) {
                 points.extend(keyframe.cloud.view().transformed(&pose).points);
             }
@@ -105,13 +105,13 @@ impl RerunView {
 
     /// Robot 0 places each peer it has joined in its own (the world's) frame.
     fn log_peer_frames(&self, host: &RobotHost) {
-        if host.robot.0 != 0 {
+        if host.robot().0 != 0 {
             return;
         }
-        for (peer, odom_in_map) in &host.peer_frames {
+        for (peer, odom_in_map) in host.joined_peers() {
             if let Err(error) = self
                 .stream
-                .log(format!("robot{}", peer.0), &transform(odom_in_map))
+                .log(format!("robot{}", peer.0), &transform(&odom_in_map))
             {
                 tracing::warn!(%error, "rerun: peer frame not logged");
             }
@@ -121,7 +121,7 @@ impl RerunView {
 
 impl HostObserver for RerunView {
     fn scan(&mut self, host: &RobotHost) {
-        let Some(scan) = host.scans.last() else {
+        let Some(scan) = host.scans().last() else {
             return;
         };
         self.at(scan.stamp_nanos);
@@ -131,13 +131,10 @@ impl HostObserver for RerunView {
             "position",
             &rerun::Points3D::new([position(&pose)]).with_radii([0.4f32]),
         );
-        let counters = host.protocol.counters().snapshot();
-        let wait_s = host
-            .requested
-            .values()
-            .map(|state| scan.stamp_nanos.saturating_sub(state.sent_nanos))
-            .max()
-            .map_or(0.0, |nanos| nanos as f64 * 1e-9);
+        let counters = host.protocol().counters().snapshot();
+        let wait_s = host.oldest_cloud_request_nanos().map_or(0.0, |sent_nanos| {
+            scan.stamp_nanos.saturating_sub(sent_nanos) as f64 * 1e-9
+        });
         for (name, value) in [
             ("sent_bytes", counters.sent_total.bytes as f64),
             ("received_bytes", counters.received_total.bytes as f64),
@@ -151,16 +148,16 @@ impl HostObserver for RerunView {
     }
 
     fn optimized(&mut self, host: &RobotHost) {
-        let Some(last) = host.scans.last() else {
+        let Some(last) = host.scans().last() else {
             return;
         };
         self.at(last.stamp_nanos);
-        if let Some(index) = host.scans.iter().rev().find_map(|scan| scan.keyframe) {
+        if let Some(index) = host.scans().iter().rev().find_map(|scan| scan.keyframe) {
             let id = KeyframeId {
-                robot: host.robot,
+                robot: host.robot(),
                 index,
             };
-            if let (Some(optimised), Some(odometry)) = (host.keyframe_pose(index), host.chains.pose(id)) {
+            if let (Some(optimised), Some(odometry)) = (host.keyframe_pose(index), host.chains().pose(id)) {
                 self.map_from_odom = optimised * odometry.inverse();
             }
         }
@@ -179,7 +176,7 @@ impl HostObserver for RerunView {
     }
 
     fn finished(&mut self, host: &RobotHost) {
-        if let Some(last) = host.scans.last() {
+        if let Some(last) = host.scans().last() {
             self.at(last.stamp_nanos);
         }
         self.log_map(host);

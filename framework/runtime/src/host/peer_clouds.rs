@@ -66,6 +66,11 @@ impl PeerClouds {
         true
     }
 
+    /// When the oldest unanswered request was (last) sent.
+    pub(crate) fn oldest_request_nanos(&self) -> Option<u64> {
+        self.requested.values().map(|state| state.sent_nanos).min()
+    }
+
     /// Candidates still waiting for a cloud.
     pub(crate) fn waiting(&self) -> usize {
         self.waiting.len()
