@@ -274,7 +274,8 @@ typedef void *SkidHandle;
 /**
  * Host-allocated buffers into which the plugin copies an error message and, for config errors, the
  * dotted path of the offending key. The plugin writes at most the capacity (cutting at a character
- * boundary) and stores the written length; it never allocates or frees these buffers.
+ * boundary) and stores the written length; it never allocates or frees these buffers. The host passes
+ * one, never null, to every call (4096 bytes for the message, 512 for the key).
  */
 typedef struct SkidErrorBuf {
   uint8_t *message;
@@ -286,7 +287,12 @@ typedef struct SkidErrorBuf {
 } SkidErrorBuf;
 
 /**
- * Builds an instance from a UTF-8 TOML config string and the host context.
+ * Builds an instance from a UTF-8 TOML config string and the host context. The string is the plugin's
+ * own table from the run's configuration (`[<slot>.<name>]`, without the header), the plugin's
+ * `default_config` laid under it, so every key is present. `skid config check` and the loading of a
+ * configuration call `create` once to check the table and `destroy` the instance straight away: refuse a
+ * bad value with SkidStatus_CONFIG (the key in the error buffer) and start nothing that outlives
+ * `destroy`.
  */
 typedef SkidStatus (*SkidCreateFn)(struct SkidAbiStr config,
                                    const struct SkidHostContext *context,
@@ -330,7 +336,9 @@ typedef struct SkidAbiLoop {
   struct SkidAbiKeyframeId source;
   struct SkidAbiTransform target_from_source;
   /**
-   * The 6×6 information matrix, row-major, translation first.
+   * The 6×6 information matrix, row-major, of the measurement over a right perturbation
+   * `target_from_source · Exp(δ)`, δ = (translation x, y, z in metres, rotation x, y, z in radians)
+   * expressed in the source frame.
    */
   double information[36];
 } SkidAbiLoop;
@@ -890,7 +898,9 @@ typedef struct SkidTextBuf {
 typedef struct SkidFineResult {
   struct SkidAbiTransform target_from_source;
   /**
-   * The 6×6 information matrix, row-major, translation first.
+   * The 6×6 information matrix, row-major, of the estimate over a right perturbation
+   * `target_from_source · Exp(δ)`, δ = (translation x, y, z in metres, rotation x, y, z in radians)
+   * expressed in the source frame.
    */
   double information[36];
   /**
@@ -912,7 +922,9 @@ typedef struct SkidFineResult {
    */
   double error;
   /**
-   * Why the alignment did not converge, as a sentence; empty when it converged.
+   * Why the alignment did not converge, as a sentence; empty when it converged. The host points it
+   * at a buffer of its own (`ptr`, `capacity`) before `refine`; the plugin writes at most `capacity`
+   * bytes and sets `len`.
    */
   struct SkidTextBuf failure;
 } SkidFineResult;
