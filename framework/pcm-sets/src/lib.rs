@@ -103,6 +103,13 @@ pub fn read_set(paths: &[PathBuf]) -> Result<MultiRobotGraph, PcmSetError> {
             ..G2oReadOptions::default()
         };
         let (graph, report) = read_g2o_3d(file, &options).map_err(|e| PcmSetError::Read(e.to_string()))?;
+        // Every key must name its robot; say which file holds one that does not.
+        for &key in graph.vertices.keys() {
+            keyframe_of_key(key).map_err(|error| PcmSetError::Input {
+                path: file.clone(),
+                message: format!("{error} (every file of a set is one robot's graph with GTSAM symbol keys)"),
+            })?;
+        }
         merged
             .skipped_lines
             .extend(report.malformed_lines.iter().map(|line| (file.clone(), *line)));

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use nalgebra::SMatrix;
 use serde::{Deserialize, Serialize};
 use skid_io::g2o::{AnyPoseGraph, G2oReadOptions, GraphPose, PoseGraph, read_g2o};
+use skid_io::toro::{InformationConvention, read_toro};
 
 use crate::chordal::{chordal_2d, chordal_3d};
 use crate::error::{EdgeLabel, PgoError};
@@ -181,7 +182,7 @@ pub fn optimize_g2o_file(
 ) -> Result<(PgoReport, AnyPoseGraph), PgoError> {
     let path = path.as_ref();
     let start = Instant::now();
-    let (mut graph, _) = read_g2o(path, &G2oReadOptions::default())?;
+    let mut graph = read_graph_file(path)?;
     let read_s = start.elapsed().as_secs_f64();
     let mut report = match &mut graph {
         AnyPoseGraph::TwoD(g) => optimize_pose_graph::<_, 3>(g, options)?,
@@ -190,6 +191,28 @@ pub fn optimize_g2o_file(
     report.file = path.display().to_string();
     report.read_s = read_s;
     Ok((report, graph))
+}
+
+/// Reads a g2o file, or a TORO one (`.graph`, `.toro`: `VERTEX2`/`EDGE2`, `VERTEX3`/`EDGE3`).
+fn read_graph_file(path: &Path) -> Result<AnyPoseGraph, PgoError> {
+    let toro = path
+        .extension()
+        .and_then(|extension| extension.to_str())
+        .is_some_and(|extension| {
+            extension.eq_ignore_ascii_case("graph") || extension.eq_ignore_ascii_case("toro")
+        });
+    if !toro {
+        return Ok(read_g2o(path, &G2oReadOptions::default())?.0);
+    }
+    let file = read_toro(path, InformationConvention::Toro, &G2oReadOptions::default())?;
+    if !file.equivalences.is_empty() {
+        tracing::warn!(
+            file = %path.display(),
+            count = file.equivalences.len(),
+            "the TORO file's EQUIV lines (vertices to merge) are not applied"
+        );
+    }
+    Ok(file.graph)
 }
 
 /// Writes an optimised graph as g2o.

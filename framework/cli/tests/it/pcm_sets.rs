@@ -85,5 +85,8 @@ fn bad_inputs_are_clear_errors() {
     let plain = pcm(&[dir.path()], &[]);
     assert!(!plain.status.success());
     let message = String::from_utf8_lossy(&plain.stderr);
-    assert!(message.contains("no robot letter"), "{message}");
+    assert!(
+        message.contains("no robot letter") && message.contains("0.g2o"),
+        "the error does not name the file: {message}"
+    );
 }

@@ -262,6 +262,11 @@ fn parse_line<P: G2oPose>(
         *report.skipped.entry(tag.to_owned()).or_insert(0) += 1;
         Ok(false)
     } else {
-        Err(tokens.error(format!("unknown g2o tag \"{tag}\"")))
+        let hint = if ["VERTEX2", "EDGE2", "VERTEX3", "EDGE3", "EQUIV"].contains(&tag) {
+            " (a TORO tag: this is a TORO graph; name the file .graph or .toro, or read it with skid_io::toro)"
+        } else {
+            ""
+        };
+        Err(tokens.error(format!("unknown g2o tag \"{tag}\"{hint}")))
     }
 }

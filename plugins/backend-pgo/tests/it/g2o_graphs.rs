@@ -59,6 +59,17 @@ fn the_toy_graph_reaches_gtsams_optimum() {
 }
 
 #[test]
+fn a_toro_file_is_read_as_toro() {
+    // csail.toro (TORO's 2D format, `VERTEX2`/`EDGE2`) was refused as an unknown g2o tag.
+    let (report, graph) = optimize_g2o_file(data("toro_format/csail.toro"), &PgoOptions::default()).unwrap();
+    let AnyPoseGraph::TwoD(graph) = graph else {
+        panic!("csail is a 2D graph");
+    };
+    assert!(graph.vertices.len() > 1000 && report.converged, "{report:?}");
+    assert!(report.final_cost <= report.initial_cost);
+}
+
+#[test]
 fn intel_reaches_the_gtsam_cost_from_both_starts() {
     for init in [Initialization::File, Initialization::Chordal] {
         let (report, _) = optimize_g2o_file(
