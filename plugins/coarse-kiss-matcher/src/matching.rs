@@ -35,6 +35,23 @@ pub struct Match {
 
 type FeatureTree = KdTree<DESCRIPTOR_LEN>;
 
+/// The matched keypoints' positions, in double precision: (source points, target points), pair by pair.
+pub fn matched_points(
+    matches: &[Match],
+    source: &crate::features::Features,
+    target: &crate::features::Features,
+) -> (Vec<nalgebra::Vector3<f64>>, Vec<nalgebra::Vector3<f64>>) {
+    matches
+        .iter()
+        .map(|m| {
+            (
+                source.points[m.source as usize].cast(),
+                target.points[m.target as usize].cast(),
+            )
+        })
+        .unzip()
+}
+
 /// Matches `source` descriptors against `target` descriptors; runs on the current rayon pool and returns
 /// the same matches, in the same order, whatever its size.
 pub fn match_descriptors(source: &[Descriptor], target: &[Descriptor], params: &MatchParams) -> Vec<Match> {

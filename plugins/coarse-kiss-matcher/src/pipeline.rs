@@ -9,7 +9,7 @@ use skid_core::slots::CoarseAlignment;
 use skid_core::{CloudView, Pose};
 
 use crate::features::{compute_features, voxel_sample};
-use crate::matching::match_descriptors;
+use crate::matching::{match_descriptors, matched_points};
 use crate::pruning::ConsistencyGraph;
 use crate::solver::{GncParams, component_wise_translation, gnc_tls_rotation};
 use crate::{KissMatcherConfig, PruningMode};
@@ -149,14 +149,7 @@ pub(crate) fn run(
     }
 
     let stage = Instant::now();
-    let matched_source: Vec<Vector3<f64>> = matches
-        .iter()
-        .map(|m| source_features.points[m.source as usize].cast())
-        .collect();
-    let matched_target: Vec<Vector3<f64>> = matches
-        .iter()
-        .map(|m| target_features.points[m.target as usize].cast())
-        .collect();
+    let (matched_source, matched_target) = matched_points(&matches, &source_features, &target_features);
     let graph = ConsistencyGraph::build(
         &matched_source,
         &matched_target,

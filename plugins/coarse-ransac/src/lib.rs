@@ -18,7 +18,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use skid_coarse_kiss_matcher::features::{VoxelSampling, compute_features, voxel_sample};
 use skid_coarse_kiss_matcher::front::FrontSettings;
-use skid_coarse_kiss_matcher::matching::match_descriptors;
+use skid_coarse_kiss_matcher::matching::{match_descriptors, matched_points};
 use skid_coarse_kiss_matcher::thread_pool;
 use skid_core::slots::{CoarseAlignment, CoarseRegistration};
 use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry};
@@ -252,14 +252,7 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
         );
         return finish(report, Some(reason));
     }
-    let matched_source: Vec<Vector3<f64>> = matches
-        .iter()
-        .map(|m| source_features.points[m.source as usize].cast())
-        .collect();
-    let matched_target: Vec<Vector3<f64>> = matches
-        .iter()
-        .map(|m| target_features.points[m.target as usize].cast())
-        .collect();
+    let (matched_source, matched_target) = matched_points(&matches, &source_features, &target_features);
     let params = RansacParams {
         inlier_distance_m: config.inlier_distance_gain * config.voxel_size_m,
         edge_length_similarity: config.edge_length_similarity,
