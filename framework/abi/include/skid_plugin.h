@@ -27,7 +27,7 @@
 #endif
 
 /* The constants a plugin's library declaration must carry. */
-#define SKID_ABI_VERSION 3u
+#define SKID_ABI_VERSION 4u
 #define SKID_LAYOUT_FINGERPRINT 0x06949ccd28bc5544ull
 #define SKID_FRAMEWORK_VERSION "0.1.0"
 #define SKID_ENTRY_SYMBOL "skid_plugin_entry"
@@ -837,6 +837,11 @@ typedef struct SkidCoarseResult {
    * Correspondences before pruning.
    */
   uint64_t correspondence_count;
+  /**
+   * Inliers of the strongest alignment distinct from this one (a symmetric or repetitive place gives
+   * a rival nearly as strong); 0 when the plugin does not look.
+   */
+  uint64_t rival_inlier_count;
   /**
    * Non-zero when the plugin trusts the estimate.
    */

@@ -45,7 +45,7 @@ pub use plugin::{
 pub use host::{AbiError, LoadedLibrary, LoadedPlugin, load_into, load_library};
 
 /// Version of the C ABI. Bump it on any change to the declaration or a function table.
-pub const ABI_VERSION: u32 = 3;
+pub const ABI_VERSION: u32 = 4;
 
 /// The version of this crate, which a plugin and the host must agree on (same major, and same minor
 /// while the major is 0).

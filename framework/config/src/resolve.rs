@@ -151,6 +151,7 @@ pub(crate) fn resolve(
     raw.deploy
         .validate(raw.run.robots)
         .and_then(|()| raw.output.validate())
+        .and_then(|()| raw.loops.validate())
         .map_err(|error| invalid(figment, error.key, error.message))?;
     let mut slots = BTreeMap::new();
     for slot in Slot::ALL {

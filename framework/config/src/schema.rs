@@ -253,6 +253,11 @@ pub struct LoopsSection {
     /// leaves the coarse stage with too few inliers although its estimate is within the fine stage's
     /// basin.
     pub refine_invalid_coarse: bool,
+    /// Refuse a loop whose coarse registration found a rival alignment (a distinct one, among the
+    /// correspondences the best leaves out) with at least this fraction of the best one's inliers: a
+    /// symmetric or repetitive place admits several alignments, and picking one there is how false
+    /// inter-robot merges begin. 0 turns the test off; at 1 only a rival as strong as the best refuses.
+    pub ambiguous_rival_ratio: f64,
 }
 
 impl Default for LoopsSection {
@@ -269,7 +274,24 @@ impl Default for LoopsSection {
             optimize_every_keyframes: 10,
             optimize_iterations: 30,
             refine_invalid_coarse: true,
+            ambiguous_rival_ratio: 0.5,
         }
+    }
+}
+
+impl LoopsSection {
+    /// Checks the section; the message names the offending key.
+    pub fn validate(&self) -> Result<(), SectionError> {
+        if !(0.0..=1.0).contains(&self.ambiguous_rival_ratio) {
+            return SectionError::at(
+                "loops.ambiguous_rival_ratio",
+                format!(
+                    "loops.ambiguous_rival_ratio = {} must lie in [0, 1] (0 turns the ambiguity test off)",
+                    self.ambiguous_rival_ratio
+                ),
+            );
+        }
+        Ok(())
     }
 }
 

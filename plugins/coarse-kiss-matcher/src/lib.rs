@@ -13,7 +13,9 @@
 //! 5. [`solver`]: GNC-TLS rotation on the chain of translation-invariant measurements (bound 2 × 0.75v;
 //!    factor 1.4, 100 iterations, cost threshold 0.005), component-wise TLS translation (bound 0.75v);
 //!    noise bounds clamped to at most 1 m;
-//! 6. valid when at least 5 final (translation) inliers remain.
+//! 6. valid when at least 5 final (translation) inliers remain;
+//! 7. [`rival`]: the correspondences the result leaves out are pruned and solved again, and the
+//!    strongest distinct alignment's inlier count is reported (the host refuses ambiguous places).
 //!
 //! The feature and matching modules are public so the RANSAC baseline shares them. The `prior` of
 //! [`CoarseRegistration::align`] is ignored: KISS-Matcher is global.
@@ -24,6 +26,7 @@ pub mod kdtree;
 pub mod matching;
 mod pipeline;
 pub mod pruning;
+pub mod rival;
 pub mod solver;
 
 use serde::{Deserialize, Serialize};
@@ -270,5 +273,7 @@ impl skid_core::PluginParams for KissMatcherConfig {
     }
 }
 
+#[cfg(test)]
+mod rival_tests;
 #[cfg(test)]
 mod tests;

@@ -1,5 +1,6 @@
 //! The KISS-Matcher pipeline (Lim et al., ICRA 2025) end to end, with a report of every stage: voxel
-//! sampling, Faster-PFH, matching, pruning, GNC-TLS rotation and TLS translation. Every early exit says
+//! sampling, Faster-PFH, matching, pruning, GNC-TLS rotation and TLS translation, then the second-best
+//! hypothesis test of [`crate::rival`]. Every early exit says
 //! why in `invalid_reason`; nothing here panics or returns NaN.
 
 use std::time::Instant;
@@ -22,6 +23,8 @@ pub struct StageTimings {
     pub matching_s: f64,
     pub pruning_s: f64,
     pub solver_s: f64,
+    /// The second-best hypothesis test ([`crate::rival`]).
+    pub rival_s: f64,
     pub total_s: f64,
 }
 
@@ -43,6 +46,9 @@ pub struct KissMatcherReport {
     pub rotation_inliers: usize,
     /// Pruned correspondences within the translation bound on every axis.
     pub final_inliers: usize,
+    /// Final inliers of the strongest distinct alignment among the correspondences the best one leaves
+    /// out ([`crate::rival`]); 0 when there is none.
+    pub rival_inliers: usize,
     /// With `max_clique` pruning: whether the clique was proven maximum within the node budget.
     pub clique_proven: Option<bool>,
     /// Why the result is not valid; `None` when it is.
@@ -57,6 +63,7 @@ impl KissMatcherReport {
                 target_from_source: Pose::identity(),
                 inlier_count: 0,
                 correspondence_count: 0,
+                rival_inlier_count: 0,
                 valid: false,
             },
             target_points: 0,
@@ -67,6 +74,7 @@ impl KissMatcherReport {
             pruned: 0,
             rotation_inliers: 0,
             final_inliers: 0,
+            rival_inliers: 0,
             clique_proven: None,
             invalid_reason: None,
             timings: StageTimings::default(),
@@ -201,6 +209,11 @@ pub(crate) fn run(
         let reason = format!("{inliers} final inliers, at least {} needed", config.min_inliers);
         return report.invalid(start, reason);
     }
+    let stage = Instant::now();
+    report.rival_inliers =
+        crate::rival::rival_inliers(config, &matched_source, &matched_target, &target_from_source);
+    report.alignment.rival_inlier_count = report.rival_inliers;
+    report.timings.rival_s = stage.elapsed().as_secs_f64();
     report.alignment.valid = true;
     report.timings.total_s = start.elapsed().as_secs_f64();
     report
@@ -209,7 +222,7 @@ pub(crate) fn run(
 /// GNC-TLS rotation on the chain of translation-invariant measurements (consecutive differences, closed
 /// into a loop, as the reference does), then component-wise TLS translation over every pruned
 /// correspondence. Returns the pose, the rotation inliers and the final inliers.
-fn solve(
+pub(crate) fn solve(
     config: &KissMatcherConfig,
     source: &[Vector3<f64>],
     target: &[Vector3<f64>],

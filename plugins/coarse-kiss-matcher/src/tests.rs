@@ -9,7 +9,7 @@ use skid_testkit::registration::{RegistrationExpectations, check_coarse};
 
 use super::*;
 
-fn matcher() -> KissMatcher {
+pub(crate) fn matcher() -> KissMatcher {
     KissMatcher::new(
         KissMatcherConfig::default(),
         &PluginContext {
@@ -21,7 +21,7 @@ fn matcher() -> KissMatcher {
 }
 
 /// The real scan pair and the reference `target_from_source`.
-fn real_pair() -> (Cloud, Cloud, Pose) {
+pub(crate) fn real_pair() -> (Cloud, Cloud, Pose) {
     let dir = skid_io::data_path("lidar_scan_pair_fast_gicp").unwrap();
     let read = |name: &str| {
         let cloud = skid_io::pcd::read_pcd(dir.join(name), skid_io::CloudReadOptions::VALID_ONLY).unwrap();

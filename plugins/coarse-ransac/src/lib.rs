@@ -208,6 +208,7 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
             target_from_source: Pose::identity(),
             inlier_count: 0,
             correspondence_count: 0,
+            rival_inlier_count: 0,
             valid: false,
         },
         points: (0, 0),
@@ -270,6 +271,12 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
     report.iterations = result.iterations;
     report.alignment.target_from_source = result.target_from_source;
     report.alignment.inlier_count = result.inlier_count;
+    report.alignment.rival_inlier_count = rival_inliers(
+        &matched_source,
+        &matched_target,
+        &result.target_from_source,
+        &params,
+    );
     let reason = (result.inlier_count < config.min_inliers).then(|| {
         format!(
             "{} inliers, at least {} needed",
@@ -277,6 +284,37 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
         )
     });
     finish(report, reason)
+}
+
+/// The second-best hypothesis test (as KISS-Matcher's, [`skid_coarse_kiss_matcher::rival`]): RANSAC
+/// again on the correspondences the best alignment leaves out (residual beyond twice the inlier
+/// distance), with another seed; the rival's inliers when it is a distinct alignment, else 0.
+fn rival_inliers(
+    source: &[Vector3<f64>],
+    target: &[Vector3<f64>],
+    best: &Pose,
+    params: &RansacParams,
+) -> usize {
+    let explained_m = 2.0 * params.inlier_distance_m;
+    let (left_source, left_target): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = source
+        .iter()
+        .zip(target)
+        .filter(|(p, q)| (*q - best.transform_point(&(**p).into()).coords).norm() > explained_m)
+        .map(|(p, q)| (*p, *q))
+        .unzip();
+    if left_source.len() < 3 {
+        return 0;
+    }
+    let params = RansacParams {
+        seed: params.seed ^ 0x5bd1_e995,
+        ..*params
+    };
+    match ransac(&left_source, &left_target, &params) {
+        Some(rival) if skid_coarse_kiss_matcher::rival::distinct(best, &rival.target_from_source) => {
+            rival.inlier_count
+        }
+        _ => 0,
+    }
 }
 
 impl skid_core::PluginParams for RansacConfig {

@@ -60,6 +60,9 @@ pub struct CoarseResult {
     pub inlier_count: u64,
     /// Correspondences before pruning.
     pub correspondence_count: u64,
+    /// Inliers of the strongest alignment distinct from this one (a symmetric or repetitive place gives
+    /// a rival nearly as strong); 0 when the plugin does not look.
+    pub rival_inlier_count: u64,
     /// Non-zero when the plugin trusts the estimate.
     pub valid: u32,
     /// Explicit padding.

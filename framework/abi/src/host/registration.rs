@@ -82,6 +82,7 @@ impl CoarseRegistration for DynCoarse {
             target_from_source: AbiTransform::IDENTITY,
             inlier_count: 0,
             correspondence_count: 0,
+            rival_inlier_count: 0,
             valid: 0,
             reserved: 0,
         };
@@ -107,6 +108,7 @@ impl CoarseRegistration for DynCoarse {
             target_from_source,
             inlier_count: usize::try_from(out.inlier_count).unwrap_or(usize::MAX),
             correspondence_count: usize::try_from(out.correspondence_count).unwrap_or(usize::MAX),
+            rival_inlier_count: usize::try_from(out.rival_inlier_count).unwrap_or(usize::MAX),
             valid: out.valid != 0,
         })
     }

@@ -21,6 +21,8 @@ pub struct CoarseOutcome {
     pub inlier_count: u64,
     /// Correspondences before pruning.
     pub correspondence_count: u64,
+    /// Inliers of the strongest alignment distinct from this one; 0 when the plugin does not look.
+    pub rival_inlier_count: u64,
     /// True when the plugin trusts the estimate.
     pub valid: bool,
 }
@@ -163,6 +165,7 @@ unsafe extern "C" fn align<T: CoarsePlugin>(
             target_from_source: outcome.target_from_source,
             inlier_count: outcome.inlier_count,
             correspondence_count: outcome.correspondence_count,
+            rival_inlier_count: outcome.rival_inlier_count,
             valid: u32::from(outcome.valid),
             reserved: 0,
         };

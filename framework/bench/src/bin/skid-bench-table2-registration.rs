@@ -31,6 +31,7 @@ fn main_table(rows: &[Row]) -> String {
         "rte_cm",
         "rre_deg",
         "success_rate_percent",
+        "unambiguous_success_percent",
         "median_inliers",
         "mean_time_ms",
     ];
@@ -45,6 +46,7 @@ fn main_table(rows: &[Row]) -> String {
         "RTE [cm] ↓",
         "RRE [°] ↓",
         "Success rate [%] ↑",
+        "Success, ambiguous refused [%] ↑",
         "Median inliers",
         "Time [ms]",
     ]

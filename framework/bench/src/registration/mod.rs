@@ -37,6 +37,9 @@ pub struct Row {
     pub method: String,
     pub pairs: usize,
     pub success_rate_percent: f64,
+    /// Coarse methods: the success rate when a result whose rival alignment is nearly as strong counts
+    /// as a refusal, as the runtime counts it (`loops.ambiguous_rival_ratio` at its default).
+    pub unambiguous_success_percent: Option<f64>,
     pub rte_cm: Option<f64>,
     pub rre_deg: Option<f64>,
     pub mean_time_ms: f64,
@@ -122,8 +125,29 @@ pub struct Outcome {
     pub valid: bool,
     /// Final inliers of a coarse method (of the coarse stage when refined); `None` for fine methods.
     pub inliers: Option<usize>,
+    /// Inliers of the coarse method's rival alignment; `None` for fine methods.
+    pub rival_inliers: Option<usize>,
     pub time_ms: f64,
     pub cpu_ms: Option<f64>,
+}
+
+impl Outcome {
+    /// True when the runtime would refuse this result as ambiguous: its rival alignment holds at least
+    /// the default `loops.ambiguous_rival_ratio` of its inliers.
+    pub fn ambiguous(&self) -> bool {
+        let ratio = skid_config::LoopsSection::default().ambiguous_rival_ratio;
+        match (self.inliers, self.rival_inliers) {
+            (Some(inliers), Some(rival)) => {
+                ratio > 0.0 && rival > 0 && rival as f64 >= ratio * inliers as f64
+            }
+            _ => false,
+        }
+    }
+}
+
+/// The percentage of `total` that `count` is (0 for an empty set).
+pub fn percent(count: usize, total: usize) -> f64 {
+    100.0 * count as f64 / total.max(1) as f64
 }
 
 /// CPU seconds (user + system, all threads) this process has used, from `/proc/self/stat` (Linux; 10 ms
@@ -147,8 +171,10 @@ fn timed<T>(work: impl FnOnce() -> T) -> (T, f64, Option<f64>) {
 fn coarse(method: &mut dyn CoarseRegistration, target: &Cloud, source: &Cloud) -> Outcome {
     let (result, time_ms, cpu_ms) = timed(|| method.align(target.view(), source.view(), None));
     let inliers = result.as_ref().ok().map(|a| a.inlier_count);
+    let rival_inliers = result.as_ref().ok().map(|a| a.rival_inlier_count);
     Outcome {
         inliers,
+        rival_inliers,
         ..outcome(
             result.map(|a| (a.target_from_source, a.valid)).ok(),
             time_ms,
@@ -163,6 +189,7 @@ fn outcome(result: Option<(Pose, bool)>, time_ms: f64, cpu_ms: Option<f64>) -> O
         estimate: result.map(|(pose, _)| pose),
         valid: result.is_some_and(|(_, valid)| valid),
         inliers: None,
+        rival_inliers: None,
         time_ms,
         cpu_ms,
     }
@@ -197,6 +224,7 @@ fn coarse_fine(
         time_ms: first.time_ms + second.time_ms,
         cpu_ms: first.cpu_ms.zip(second.cpu_ms).map(|(a, b)| a + b),
         inliers: first.inliers,
+        rival_inliers: first.rival_inliers,
         ..second
     }
 }
@@ -233,6 +261,7 @@ pub fn summary(
         method: method.to_owned(),
         pairs: stats.pairs,
         success_rate_percent: 100.0 * stats.success_rate,
+        unambiguous_success_percent: None,
         rte_cm: stats.rte_cm,
         rre_deg: stats.rre_deg,
         mean_time_ms: times_ms.iter().sum::<f64>() / times_ms.len().max(1) as f64,

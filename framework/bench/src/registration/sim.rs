@@ -15,7 +15,7 @@ use skid_sim::WorldKind;
 
 use super::pairs::{PairGeometry, PairKind, SimPair, sim_pairs, unit_hash};
 use super::reference::{REFERENCE_NAME, reference_kiss_matcher};
-use super::{METHOD_NAMES, Methods, check_methods, pose_errors, summary};
+use super::{METHOD_NAMES, Methods, check_methods, percent, pose_errors, summary};
 use crate::Report;
 
 /// Parameters of the simulated table.
@@ -80,6 +80,8 @@ pub struct PairResult {
     pub valid: bool,
     /// Final inliers of a coarse method (of its coarse stage when refined).
     pub inliers: Option<usize>,
+    /// A coarse result the runtime would refuse as ambiguous (its rival alignment nearly as strong).
+    pub ambiguous: bool,
     pub time_ms: f64,
     pub cpu_ms: Option<f64>,
     #[serde(skip)]
@@ -113,6 +115,7 @@ fn result_for(world: WorldKind, pair: &SimPair, method: &str) -> PairResult {
         success: false,
         valid: false,
         inliers: None,
+        ambiguous: false,
         time_ms: 0.0,
         cpu_ms: None,
         estimate: None,
@@ -146,6 +149,7 @@ fn world_results(
                 success,
                 valid: outcome.valid,
                 inliers: outcome.inliers,
+                ambiguous: outcome.ambiguous(),
                 time_ms: outcome.time_ms,
                 cpu_ms: outcome.cpu_ms,
                 estimate: outcome.estimate,
@@ -196,7 +200,12 @@ fn push_summary(
         .collect();
     let times: Vec<f64> = chosen.iter().map(|r| r.time_ms).collect();
     let cpu: Vec<f64> = chosen.iter().filter_map(|r| r.cpu_ms).collect();
-    let mut row = serde_json::to_value(summary(data, method, &estimates, &times, &cpu)?)?;
+    let mut summary = summary(data, method, &estimates, &times, &cpu)?;
+    if chosen.iter().any(|r| r.inliers.is_some()) && method != REFERENCE_NAME {
+        let kept = chosen.iter().filter(|r| r.success && !r.ambiguous).count();
+        summary.unambiguous_success_percent = Some(percent(kept, chosen.len()));
+    }
+    let mut row = serde_json::to_value(summary)?;
     let mut inliers: Vec<usize> = chosen.iter().filter_map(|r| r.inliers).collect();
     inliers.sort_unstable();
     row["median_inliers"] = serde_json::json!(inliers.get(inliers.len() / 2));

@@ -17,7 +17,7 @@ use skid_eval::plot::{PlotOptions, Series, line_plot};
 use skid_sim::WorldKind;
 
 use super::pairs::{PairKind, RouteSampler};
-use super::{Methods, Row, check_methods, mean, pose_errors};
+use super::{Methods, Row, check_methods, mean, percent, pose_errors};
 use crate::Report;
 
 /// Parameters of the sweep.
@@ -81,6 +81,10 @@ pub struct SweepEntry {
     pub rotation_error_deg: Option<f64>,
     pub success: bool,
     pub valid: bool,
+    /// A coarse result the runtime would refuse as ambiguous (its rival alignment nearly as strong).
+    pub ambiguous: bool,
+    /// Whether the method is a coarse one (reports inliers and a rival).
+    pub coarse: bool,
     pub time_ms: f64,
     pub cpu_ms: Option<f64>,
 }
@@ -151,6 +155,8 @@ fn sweep_case(
                     rotation_error_deg,
                     success,
                     valid: outcome.valid,
+                    ambiguous: outcome.ambiguous(),
+                    coarse: outcome.inliers.is_some(),
                     time_ms: outcome.time_ms,
                     cpu_ms: outcome.cpu_ms,
                 });
@@ -231,6 +237,12 @@ fn case_results(
             method: method.clone(),
             pairs: mine.len(),
             success_rate_percent: success_rate(&mine),
+            unambiguous_success_percent: mine.iter().any(|e| e.coarse).then(|| {
+                percent(
+                    mine.iter().filter(|e| e.success && !e.ambiguous).count(),
+                    mine.len(),
+                )
+            }),
             rte_cm: mean(
                 &successes
                     .iter()

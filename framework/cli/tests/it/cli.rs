@@ -193,6 +193,7 @@ fn run_writes_trajectories_and_a_summary() {
             "cloud_missing",
             "awaiting_cloud",
             "coarse_invalid",
+            "coarse_ambiguous",
             "fine_not_converged",
             "accepted_intra",
             "accepted_inter",

@@ -13,6 +13,10 @@ pub struct CoarseAlignment {
     pub inlier_count: usize,
     /// Correspondences before pruning.
     pub correspondence_count: usize,
+    /// Inliers of the strongest alignment distinct from this one, found among the correspondences this
+    /// one leaves out; 0 when the plugin does not look. A symmetric or repetitive place admits several
+    /// alignments, and a rival nearly as strong as the estimate marks the result as ambiguous.
+    pub rival_inlier_count: usize,
     /// True when the plugin trusts the estimate (for example at least 5 final inliers).
     pub valid: bool,
 }

@@ -9,8 +9,8 @@ use skid_core::{Information, KeyframeId, LoopId, Pose};
 
 /// What became of this robot's loop candidates. Every candidate ends in exactly one outcome, so the
 /// candidates add up: `candidates_intra + candidates_inter` equals `repeated_pair + cloud_missing +
-/// awaiting_cloud + coarse_invalid + fine_not_converged + accepted_intra + accepted_inter + rejected +
-/// undecided` ([`LoopStats::outcomes`]). The accepted, rejected and undecided counts are the state at the
+/// awaiting_cloud + coarse_invalid + coarse_ambiguous + fine_not_converged + accepted_intra +
+/// accepted_inter + rejected + undecided` ([`LoopStats::outcomes`]). The accepted, rejected and undecided counts are the state at the
 /// time of reading (a loop PCM retracts counts as rejected); the last three fields count events.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct LoopStats {
@@ -24,6 +24,9 @@ pub struct LoopStats {
     pub awaiting_cloud: usize,
     /// The coarse registration found no valid alignment.
     pub coarse_invalid: usize,
+    /// The coarse registration found a rival alignment nearly as strong as its best
+    /// (`loops.ambiguous_rival_ratio`): a symmetric or repetitive place.
+    pub coarse_ambiguous: usize,
     /// The fine registration did not converge.
     pub fine_not_converged: usize,
     /// In this robot's graph, found by this robot.
@@ -47,6 +50,7 @@ impl LoopStats {
             + self.cloud_missing
             + self.awaiting_cloud
             + self.coarse_invalid
+            + self.coarse_ambiguous
             + self.fine_not_converged
             + self.accepted_intra
             + self.accepted_inter
@@ -75,6 +79,7 @@ pub(crate) enum LoopEvent {
     RepeatedPair,
     CloudMissing,
     CoarseInvalid,
+    CoarseAmbiguous,
     CoarseInvalidRefined,
     FineNotConverged,
 }
@@ -113,6 +118,7 @@ impl LoopBook {
             LoopEvent::RepeatedPair => &mut self.counters.repeated_pair,
             LoopEvent::CloudMissing => &mut self.counters.cloud_missing,
             LoopEvent::CoarseInvalid => &mut self.counters.coarse_invalid,
+            LoopEvent::CoarseAmbiguous => &mut self.counters.coarse_ambiguous,
             LoopEvent::CoarseInvalidRefined => &mut self.counters.coarse_invalid_refined,
             LoopEvent::FineNotConverged => &mut self.counters.fine_not_converged,
         };

@@ -4,7 +4,7 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 use skid_config::ResolvedConfig;
-use skid_core::slots::{LoopCandidate, LoopClosure, Verdict};
+use skid_core::slots::{CoarseAlignment, LoopCandidate, LoopClosure, Verdict};
 use skid_core::{KeyframeId, PluginError, Pose, Slot};
 
 use super::RobotHost;
@@ -13,6 +13,14 @@ use super::peer_clouds::PendingCandidate;
 use crate::error::RuntimeError;
 use crate::graph::HostGraph;
 use crate::settings::loop_information;
+
+/// True when the coarse registration's rival alignment holds at least `ratio` of the best one's inliers
+/// (`ratio = 0` turns the test off).
+fn ambiguous(alignment: &CoarseAlignment, ratio: f64) -> bool {
+    ratio > 0.0
+        && alignment.rival_inlier_count > 0
+        && alignment.rival_inlier_count as f64 >= ratio * alignment.inlier_count as f64
+}
 
 impl RobotHost {
     /// Registers and verifies one candidate; accepted loops go to the back-end (and to the peer).
@@ -45,6 +53,11 @@ impl RobotHost {
                 let result = coarse.align(target_cloud.view(), source_cloud.view(), prior.as_ref());
                 self.add_stage_ms("coarse", started.elapsed().as_secs_f64() * 1e3);
                 match result {
+                    Ok(alignment) if ambiguous(&alignment, config.loops.ambiguous_rival_ratio) => {
+                        self.loops.count(LoopEvent::CoarseAmbiguous);
+                        tracing::debug!(robot = %self.robot, target = %candidate.target, source = %candidate.source, inliers = alignment.inlier_count, rival_inliers = alignment.rival_inlier_count, "loop candidate: refused, the place admits a rival alignment nearly as strong");
+                        return Ok(());
+                    }
                     Ok(alignment) if alignment.valid => alignment.target_from_source,
                     Ok(alignment) if config.loops.refine_invalid_coarse && self.plugins.fine.is_some() => {
                         // The verifier judges the refined loop; a wrong one fails its fitness or PCM.
