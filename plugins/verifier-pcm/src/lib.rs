@@ -7,7 +7,9 @@
 //! - `pcm`: both stages; loops of a robot pair are accepted as the consistent core of their
 //!   consistency graph (every accepted loop consistent with at least 90 % of the others, found by
 //!   peeling; or, with `min_consistent_fraction = 1`, the maximum clique), updated as loops arrive, and
-//!   earlier acceptances are retracted when the accepted set changes.
+//!   earlier acceptances are retracted when the accepted set changes. Between two robots the set is a
+//!   frame hypothesis, granted only when its loops are spread over space and it clearly dominates the
+//!   strongest rival hypothesis ([`earned`]); a granted set that stops dominating is retracted.
 //! - `gnc`: the fitness stage only, accepting the rest; pair it with `[backend.pgo] robust = "gnc"` so
 //!   graduated non-convexity with a truncated-least-squares loss rejects outliers in the back-end.
 //!
@@ -16,6 +18,7 @@
 pub mod clique;
 pub mod consistency;
 pub mod dense;
+mod earned;
 pub mod fitness;
 pub mod lie;
 pub mod pcm;

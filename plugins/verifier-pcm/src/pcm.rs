@@ -4,7 +4,10 @@
 //! accepted set is a maximum clique of that graph ([`crate::clique`]).
 //!
 //! The accepted set is the maximum clique with `min_consistent_fraction = 1`; below 1 (the default) it is
-//! the consistent core that peeling keeps ([`crate::dense`]), recomputed at each new loop.
+//! the consistent core that peeling keeps ([`crate::dense`]), recomputed at each new loop. An inter-robot
+//! group's set is accepted only once it is earned ([`crate::earned`]): spread over space and clearly
+//! stronger than any rival frame hypothesis; until then its loops wait, and a set that stops dominating
+//! is retracted.
 //!
 //! Incremental update of the clique: adding one vertex `v` raises the maximum clique size by at most one, so when the
 //! current clique is exact it suffices to look for a clique of the current size inside `v`'s
@@ -23,6 +26,7 @@ use skid_core::{LoopId, RobotId};
 use crate::clique::{Graph, extend_greedily, heuristic_clique, max_clique, max_clique_within};
 use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::dense::consistent_core;
+use crate::earned::{GrantRule, Withheld, judge};
 use crate::lie::chi2_quantile;
 
 /// Parameters of PCM.
@@ -45,6 +49,13 @@ pub struct PcmParams {
     /// stays (real covariances give heavy-tailed test statistics). The default 0.8 is the largest that
     /// drops no more true loops than GNC-TLS alone on COSMO-Bench's real problems (0.9 drops 2–57 more).
     pub min_consistent_fraction: f64,
+    /// An inter-robot set is granted (its loops accepted, the robots merged) only when, on each robot, the
+    /// keyframes its loops join span at least this many metres ([`crate::earned`]). 0 turns it off.
+    pub min_spread_m: f64,
+    /// An inter-robot set is granted only when it holds at least this many times as many loops as the
+    /// strongest rival frame hypothesis (the consistent core of the loops that disagree with it); a
+    /// granted set that stops dominating is retracted. 0 turns it off.
+    pub dominance_ratio: f64,
 }
 
 impl Default for PcmParams {
@@ -55,6 +66,8 @@ impl Default for PcmParams {
             clique_search_budget: 2_000_000,
             check_intra_robot: true,
             min_consistent_fraction: 0.8,
+            min_spread_m: 3.0,
+            dominance_ratio: 2.0,
         }
     }
 }
@@ -74,7 +87,23 @@ impl PcmParams {
                 self.min_consistent_fraction
             ));
         }
+        for (value, key) in [
+            (self.min_spread_m, "min_spread_m"),
+            (self.dominance_ratio, "dominance_ratio"),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(format!("{key} must be 0 (off) or positive, got {value}"));
+            }
+        }
         Ok(())
+    }
+
+    fn grant_rule(&self) -> GrantRule {
+        GrantRule {
+            min_spread_m: self.min_spread_m,
+            dominance_ratio: self.dominance_ratio,
+            core_fraction: self.min_consistent_fraction,
+        }
     }
 }
 
@@ -92,6 +121,10 @@ pub struct PcmUpdate {
     pub group_size: usize,
     /// False when the clique came from the heuristic.
     pub exact: bool,
+    /// Why the group's leading inter-robot set is not granted ([`crate::earned`]), when it is not.
+    pub withheld: Option<String>,
+    /// True when the new loop belongs to the group's leading set (granted or not).
+    pub in_leading_set: bool,
 }
 
 /// One robot pair's loops and consistency graph.
@@ -102,6 +135,18 @@ struct Group {
     clique: Vec<usize>,
     decided: bool,
     exact: bool,
+    /// Why the leading set (`clique`) of an inter-robot group is not granted; `None` when it is.
+    withheld: Option<Withheld>,
+}
+
+impl Group {
+    /// The loops this group accepts: its leading set, unless that is withheld.
+    fn granted(&self) -> &[usize] {
+        match self.withheld {
+            Some(_) => &[],
+            None => &self.clique,
+        }
+    }
 }
 
 /// The incremental PCM state.
@@ -139,7 +184,7 @@ impl Pcm {
         let mut ids: Vec<LoopId> = self
             .groups
             .values()
-            .flat_map(|g| g.clique.iter().map(|&k| g.loops[k].id))
+            .flat_map(|g| g.granted().iter().map(|&k| g.loops[k].id))
             .collect();
         ids.sort_unstable();
         ids
@@ -174,7 +219,7 @@ impl Pcm {
             }
         }
         group.loops.push(pcm_loop);
-        let before: BTreeSet<usize> = group.clique.iter().copied().collect();
+        let before: BTreeSet<usize> = group.granted().iter().copied().collect();
         if group.loops.len() < self.params.min_loops_before_decision.max(1) {
             return Ok(PcmUpdate {
                 pending: true,
@@ -236,8 +281,20 @@ impl Pcm {
             }
             group.decided = true;
         }
-        let after: BTreeSet<usize> = group.clique.iter().copied().collect();
+        group.withheld = match intra {
+            true => None,
+            false => judge(
+                &self.params.grant_rule(),
+                &group.loops,
+                &group.graph,
+                &group.clique,
+                graph,
+            ),
+        };
+        let after: BTreeSet<usize> = group.granted().iter().copied().collect();
         Ok(PcmUpdate {
+            withheld: group.withheld.as_ref().map(ToString::to_string),
+            in_leading_set: group.clique.contains(&v),
             accepted: after.difference(&before).map(|&k| group.loops[k].id).collect(),
             retracted: before.difference(&after).map(|&k| group.loops[k].id).collect(),
             pending: false,
@@ -308,8 +365,10 @@ mod tests {
 
     #[test]
     fn a_consistent_wrong_pair_is_accepted_then_retracted() {
+        // The classic rule: the largest set wins at once, however narrowly.
         let mut pcm = Pcm::new(PcmParams {
             min_loops_before_decision: 2,
+            dominance_ratio: 0.0,
             ..PcmParams::default()
         })
         .unwrap();
@@ -350,6 +409,109 @@ mod tests {
                 .is_err(),
             "duplicate id"
         );
+    }
+
+    /// Adds a loop and folds its update into `accepted`; returns the update.
+    fn add_tracking(pcm: &mut Pcm, accepted: &mut BTreeSet<LoopId>, pcm_loop: PcmLoop) -> PcmUpdate {
+        let update = pcm.add(pcm_loop, &Curves).unwrap();
+        for id in &update.retracted {
+            assert!(accepted.remove(id), "{id} retracted without being accepted");
+        }
+        accepted.extend(update.accepted.iter().copied());
+        assert_eq!(pcm.accepted(), accepted.iter().copied().collect::<Vec<_>>());
+        update
+    }
+
+    #[test]
+    fn a_merge_waits_until_earned_is_withdrawn_when_contested_and_redone_in_the_stronger_frame() {
+        let mut pcm = Pcm::new(PcmParams {
+            min_loops_before_decision: 2,
+            ..PcmParams::default()
+        })
+        .unwrap();
+        let k = KeyframeId::new;
+        let mut accepted = BTreeSet::new();
+        // Four wrong loops that agree (robot 1 placed 6 m too far along), spread over 6 m on each robot.
+        let offset = Pose::new(Vector3::new(6.0, 0.0, 0.0), Vector3::zeros());
+        let wrong: Vec<LoopId> = (1..=4).map(LoopId).collect();
+        for (id, index) in [(1, 2), (2, 4), (3, 6), (4, 5)] {
+            add_tracking(
+                &mut pcm,
+                &mut accepted,
+                aligned_loop(id, k(0, index), k(1, index), &offset, Pose::identity()),
+            );
+        }
+        assert_eq!(
+            accepted,
+            wrong.iter().copied().collect(),
+            "unrivalled and spread: granted"
+        );
+        // Right loops arrive further on. With three of them the wrong set no longer holds twice the
+        // rival's loops: the merge is withdrawn.
+        let mut withdrawn_at = None;
+        let mut granted_at = None;
+        for (n, index) in (10..=24).step_by(2).enumerate() {
+            let id = 10 + n as u64;
+            let update = add_tracking(
+                &mut pcm,
+                &mut accepted,
+                pcm_loop(id, k(0, index), k(1, index), Pose::identity()),
+            );
+            if update.retracted == wrong && withdrawn_at.is_none() {
+                withdrawn_at = Some(n + 1);
+                assert!(update.withheld.is_some(), "{update:?}");
+            }
+            if !accepted.is_empty() && granted_at.is_none() && withdrawn_at.is_some() {
+                granted_at = Some(n + 1);
+            }
+            assert!(
+                accepted.iter().all(|id| id.0 >= 10) || accepted.iter().all(|id| id.0 < 10),
+                "never two frames at once: {accepted:?}"
+            );
+        }
+        assert_eq!(withdrawn_at, Some(3), "withdrawn once a rival holds three loops");
+        assert_eq!(
+            granted_at,
+            Some(8),
+            "redone once the right frame holds twice the wrong one's loops"
+        );
+        assert_eq!(accepted, (10..18).map(LoopId).collect());
+    }
+
+    #[test]
+    fn loops_on_one_spot_do_not_merge_robots() {
+        let mut pcm = Pcm::new(PcmParams {
+            min_loops_before_decision: 2,
+            ..PcmParams::default()
+        })
+        .unwrap();
+        let k = KeyframeId::new;
+        // Four consistent loops whose keyframes lie within 2 m on each robot.
+        let mut last = None;
+        for (id, (a, b)) in [(5, 5), (6, 5), (5, 6), (6, 6)].into_iter().enumerate() {
+            last = Some(
+                pcm.add(
+                    pcm_loop(id as u64 + 1, k(0, a), k(1, b), Pose::identity()),
+                    &Curves,
+                )
+                .unwrap(),
+            );
+        }
+        let last = last.unwrap();
+        assert!(pcm.accepted().is_empty());
+        assert!(last.in_leading_set, "{last:?}");
+        assert!(
+            last.withheld
+                .as_deref()
+                .is_some_and(|reason| reason.contains("span only")),
+            "{last:?}"
+        );
+        // A fifth loop 10 m away spreads the set: it is granted whole.
+        let update = pcm
+            .add(pcm_loop(9, k(0, 10), k(1, 10), Pose::identity()), &Curves)
+            .unwrap();
+        assert_eq!(update.withheld, None);
+        assert_eq!(pcm.accepted().len(), 5);
     }
 
     #[test]

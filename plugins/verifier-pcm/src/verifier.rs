@@ -109,7 +109,9 @@ impl Verifier for PcmVerifier {
             retracted: update.retracted.clone(),
             rejected: Vec::new(),
         };
-        if !update.pending && !update.accepted.contains(&id) {
+        // A loop of a leading set that is not earned yet waits, neither accepted nor rejected.
+        let waits = update.pending || (update.withheld.is_some() && update.in_leading_set);
+        if !waits && !update.accepted.contains(&id) {
             verdict.rejected.push((
                 id,
                 format!(
