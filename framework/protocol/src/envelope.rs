@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::RobotId;
 
 use crate::messages::{
-    CloudMsg, CloudRequest, DescriptorBatch, InvalidMessage, Loops, Message, MessageKind, OdomChain,
+    CloudMsg, CloudRequest, DescriptorBatch, Frames, InvalidMessage, Loops, Message, MessageKind, OdomChain,
     PeerStatus,
 };
 
@@ -185,6 +185,7 @@ pub fn encode(
         Message::Cloud(body) => postcard::to_allocvec(body)?,
         Message::OdomChain(body) => postcard::to_allocvec(body)?,
         Message::Loops(body) => postcard::to_allocvec(body)?,
+        Message::Frames(body) => postcard::to_allocvec(body)?,
     };
     let limit = config.limit_for(kind);
     let payload_len = u32::try_from(payload.len())
@@ -306,5 +307,6 @@ fn decode_payload(kind: MessageKind, payload: &[u8]) -> Result<Message, postcard
         MessageKind::Cloud => Message::Cloud(exact::<CloudMsg>(payload)?),
         MessageKind::OdomChain => Message::OdomChain(exact::<OdomChain>(payload)?),
         MessageKind::Loops => Message::Loops(exact::<Loops>(payload)?),
+        MessageKind::Frames => Message::Frames(exact::<Frames>(payload)?),
     })
 }

@@ -29,8 +29,8 @@ pub use envelope::{
     decode, decode_envelope, encode,
 };
 pub use messages::{
-    Capabilities, ChainEdge, CloudMsg, CloudRequest, DescriptorBatch, DescriptorEntry, InvalidMessage,
-    LoopMsg, Loops, Message, MessageKind, OdomChain, PeerStatus,
+    Capabilities, ChainEdge, CloudMsg, CloudRequest, DescriptorBatch, DescriptorEntry, FrameMsg, Frames,
+    InvalidMessage, LoopMsg, Loops, Message, MessageKind, OdomChain, PeerStatus,
 };
 pub use sequence::{Arrival, NewestWins, PeerSequences, SequenceWindow};
 pub use wire::{InformationMsg, PoseMsg};

@@ -20,11 +20,12 @@ pub enum MessageKind {
     Cloud = 5,
     OdomChain = 6,
     Loops = 7,
+    Frames = 8,
 }
 
 impl MessageKind {
     /// Every kind, in wire-code order.
-    pub const ALL: [MessageKind; 7] = [
+    pub const ALL: [MessageKind; 8] = [
         Self::Hello,
         Self::Heartbeat,
         Self::Descriptors,
@@ -32,6 +33,7 @@ impl MessageKind {
         Self::Cloud,
         Self::OdomChain,
         Self::Loops,
+        Self::Frames,
     ];
 
     /// The code written in the envelope.
@@ -54,6 +56,7 @@ impl MessageKind {
             Self::Cloud => "cloud",
             Self::OdomChain => "odom_chain",
             Self::Loops => "loops",
+            Self::Frames => "frames",
         }
     }
 
@@ -165,6 +168,24 @@ pub struct Loops {
     pub retracted: Vec<(KeyframeId, KeyframeId)>,
 }
 
+/// Where the sender places the robots it has merged with: for each, the pose of that robot's first
+/// keyframe in the frame of the sender's first keyframe, from the sender's back-end. Peers compose these
+/// with their own frames to check a direct merge against the cycle through the sender.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Frames {
+    pub robot: RobotId,
+    pub frames: Vec<FrameMsg>,
+}
+
+/// One robot's frame as the sender holds it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameMsg {
+    pub robot: RobotId,
+    pub sender_first_from_robot_first: PoseMsg,
+    /// Accepted loops the sender holds with that robot.
+    pub loops: u32,
+}
+
 /// Any inter-robot message.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Message {
@@ -175,6 +196,7 @@ pub enum Message {
     Cloud(CloudMsg),
     OdomChain(OdomChain),
     Loops(Loops),
+    Frames(Frames),
 }
 
 /// Why a decoded message is not acceptable.
@@ -203,6 +225,7 @@ impl Message {
             Self::Cloud(_) => MessageKind::Cloud,
             Self::OdomChain(_) => MessageKind::OdomChain,
             Self::Loops(_) => MessageKind::Loops,
+            Self::Frames(_) => MessageKind::Frames,
         }
     }
 
@@ -215,6 +238,7 @@ impl Message {
             Self::Cloud(cloud) => cloud.keyframe.robot,
             Self::OdomChain(chain) => chain.robot,
             Self::Loops(loops) => loops.robot,
+            Self::Frames(frames) => frames.robot,
         }
     }
 
@@ -286,6 +310,19 @@ impl Message {
                     if !closure.fitness_m2.is_finite() {
                         return Err(field("loop fitness is not finite"));
                     }
+                }
+                Ok(())
+            }
+            Self::Frames(frames) => {
+                let mut seen = std::collections::BTreeSet::new();
+                for frame in &frames.frames {
+                    if frame.robot == frames.robot {
+                        return Err(field(format!("{} reports a frame of itself", frames.robot)));
+                    }
+                    if !seen.insert(frame.robot) {
+                        return Err(field(format!("the frame of {} is reported twice", frame.robot)));
+                    }
+                    check_pose(&frame.sender_first_from_robot_first, "frame")?;
                 }
                 Ok(())
             }

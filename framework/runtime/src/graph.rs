@@ -4,14 +4,20 @@
 use std::collections::BTreeMap;
 
 use skid_core::slots::{GraphView, LoopClosure, RelativePose};
-use skid_core::{KeyframeId, LoopId, Pose};
+use skid_core::{KeyframeId, LoopId, Pose, RobotId};
 use skid_geometry::OdometryChains;
+
+/// Frames of robot `b` in robot `a` composed through third robots, one per robot `via`.
+pub type FramesThroughOthers<'a> = &'a dyn Fn(RobotId, RobotId) -> Vec<(RobotId, Pose)>;
 
 /// Borrowed pieces of a robot host, viewed as one graph.
 pub struct HostGraph<'a> {
     pub chains: &'a OdometryChains,
     pub backend: Option<&'a dyn GraphView>,
     pub loops: &'a BTreeMap<LoopId, LoopClosure>,
+    /// Frames of `b` in `a` composed through third robots (see
+    /// [`GraphView::frames_through_others`]); `None` when the host keeps none.
+    pub through_others: Option<FramesThroughOthers<'a>>,
 }
 
 impl GraphView for HostGraph<'_> {
@@ -31,5 +37,9 @@ impl GraphView for HostGraph<'_> {
 
     fn loops(&self) -> Vec<LoopClosure> {
         self.loops.values().cloned().collect()
+    }
+
+    fn frames_through_others(&self, a: RobotId, b: RobotId) -> Vec<(RobotId, Pose)> {
+        self.through_others.map_or_else(Vec::new, |through| through(a, b))
     }
 }

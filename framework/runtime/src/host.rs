@@ -1,7 +1,8 @@
 //! One robot's host: its plugin instances and the state that joins them, with read-only views for the
 //! outputs and observers. The state is kept in parts with one job each, each in its own file under
 //! `host/`: the robot's own track (`own_track`), its loops (`loop_book`), the peer clouds it fetched
-//! (`peer_clouds`) and its record of the back-end's graph (`backend_book`). The work is split the same
+//! (`peer_clouds`), its record of the back-end's graph (`backend_book`) and the frames of the robots it
+//! and its peers merged with (`frame_book`). The work is split the same
 //! way: one scan's step (`scan_step`), a candidate's way to a loop (`loops`), and the peers' messages
 //! (`peers`).
 
@@ -24,14 +25,17 @@ use crate::frontend::FrontEndFeed;
 use crate::peer_faults::PeerFaults;
 
 mod backend_book;
+mod frame_book;
 mod loop_book;
 mod loops;
+mod merges;
 mod own_track;
 mod peer_clouds;
 mod peers;
 mod scan_step;
 
 use backend_book::BackendBook;
+use frame_book::FrameBook;
 use loop_book::LoopBook;
 pub use loop_book::{LoopStanding, LoopStats, StandingLoop};
 use own_track::OwnTrack;
@@ -70,6 +74,8 @@ pub struct RobotHost {
     /// Well-formed peer messages refused (wrong descriptor kind, foreign loops, …), by class.
     peer_faults: PeerFaults,
     graph: BackendBook,
+    /// Where this robot and its peers place the robots they merged with.
+    frames: FrameBook,
     stage_ms: BTreeMap<&'static str, f64>,
     /// Set by the executor once the robot's source has ended.
     pub(crate) finished: bool,
@@ -97,6 +103,7 @@ impl RobotHost {
             peer_clouds: PeerClouds::default(),
             peer_faults: PeerFaults::default(),
             graph: BackendBook::default(),
+            frames: FrameBook::default(),
             stage_ms: BTreeMap::new(),
             finished: false,
             feed: None,
@@ -206,6 +213,13 @@ impl RobotHost {
     }
 
     /// The loops in this robot's graph (its own accepted ones and those its peers accepted with it).
+    /// The robots this robot has merged with (it holds accepted loops with them), each with the pose of
+    /// its first keyframe in the frame of this robot's first keyframe and the loops behind it, as of the
+    /// last refresh (each keyframe and each loop decision).
+    pub fn merged_frames(&self) -> &BTreeMap<RobotId, (Pose, u32)> {
+        self.frames.own()
+    }
+
     pub fn accepted_loops(&self) -> &BTreeMap<LoopId, LoopClosure> {
         self.loops.accepted()
     }

@@ -121,6 +121,19 @@ pub fn alpha_from_beta(alpha: &RobotHost, beta: &RobotHost) -> Result<(Pose, usi
     let graph = alpha
         .backend_graph()
         .ok_or("robot α has no back-end, so it holds no estimate of β's frame")?;
+    // β's keyframes stay in α's back-end after every loop between them was retracted (a merge
+    // withdrawn); they place β nowhere then.
+    let merged = alpha
+        .accepted_loops()
+        .values()
+        .any(|closure| closure.target.robot == beta.robot() || closure.source.robot == beta.robot());
+    if !merged {
+        return Err(format!(
+            "{} accepted no loop with {} (or withdrew every one)",
+            alpha.robot(),
+            beta.robot()
+        ));
+    }
     let (in_alpha, in_beta): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = beta
         .keyframes()
         .keys()

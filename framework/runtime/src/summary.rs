@@ -32,6 +32,20 @@ pub struct RobotSummary {
     pub transport_refusals: BTreeMap<String, u64>,
     /// Well-formed peer messages the robot refused, by class (see `peer_faults.rs`).
     pub peer_faults: BTreeMap<String, u64>,
+    /// The robots this robot has merged with at the end (it holds accepted loops with them), each with
+    /// where that robot's first keyframe sits in the frame of this robot's first keyframe.
+    pub merged_with: Vec<MergedFrame>,
+}
+
+/// A merged robot's frame as one robot holds it.
+#[derive(Clone, Debug, Serialize)]
+pub struct MergedFrame {
+    pub robot: u32,
+    /// Accepted loops behind the frame.
+    pub loops: u32,
+    /// Translation in metres and rotation as a unit quaternion (x, y, z, w).
+    pub translation_m: [f64; 3],
+    pub rotation_xyzw: [f64; 4],
 }
 
 /// The summary of a whole run.
@@ -108,6 +122,16 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
             .map(|transport| transport.refusals())
             .unwrap_or_default(),
         peer_faults: host.peer_faults().snapshot(),
+        merged_with: host
+            .merged_frames()
+            .iter()
+            .map(|(robot, (frame, loops))| MergedFrame {
+                robot: robot.0,
+                loops: *loops,
+                translation_m: frame.translation.vector.into(),
+                rotation_xyzw: frame.rotation.coords.into(),
+            })
+            .collect(),
     }
 }
 

@@ -5,15 +5,19 @@
 //! - its loops are spread over space: on each robot, the keyframes they join span at least
 //!   `min_spread_m` (not all on one spot), and
 //! - it clearly dominates: it holds at least `dominance_ratio` times as many loops as the strongest
-//!   rival, the consistent core of the loops that disagree with most of it (a competing frame).
+//!   rival, the consistent core of the loops that disagree with most of it (a competing frame);
+//! - it closes the cycle: where a third robot has merged with both robots, the frame through it
+//!   ([`GraphView::frames_through_others`]) agrees with most of the set's loops, at each loop's place,
+//!   within `cycle_tolerance_m` and `cycle_tolerance_deg`. Aliasing that fools one pair of robots rarely
+//!   fools two pairs into the same wrong frame.
 //!
 //! A granted set that stops dominating (a rival grows) is withdrawn, and its loops are retracted; when
 //! the rival later dominates in turn, it is granted and the merge is redone in its frame. This is the
 //! hypothesis bookkeeping the SKiD issue on self-similar places asks for, on top of PCM (Mangelson et
 //! al., ICRA 2018).
 
-use skid_core::KeyframeId;
 use skid_core::slots::GraphView;
+use skid_core::{KeyframeId, Pose, RobotId};
 
 use crate::clique::Graph;
 use crate::consistency::PcmLoop;
@@ -24,6 +28,8 @@ use crate::dense::consistent_core;
 pub(crate) struct GrantRule {
     pub min_spread_m: f64,
     pub dominance_ratio: f64,
+    pub cycle_tolerance_m: f64,
+    pub cycle_tolerance_rad: f64,
     /// The peeling fraction for the rival's core (PCM's own `min_consistent_fraction`).
     pub core_fraction: f64,
 }
@@ -35,6 +41,8 @@ pub(crate) enum Withheld {
     Clustered { spread_m: f64 },
     /// A rival hypothesis holds too many loops.
     Contested { rival: usize },
+    /// The frame through a third robot disagrees with most of the loops.
+    Contradicted { via: RobotId, off_m: f64, off_deg: f64 },
 }
 
 impl std::fmt::Display for Withheld {
@@ -44,6 +52,10 @@ impl std::fmt::Display for Withheld {
                 write!(f, "its loops' keyframes span only {spread_m:.1} m on one robot")
             }
             Self::Contested { rival } => write!(f, "a rival frame hypothesis is supported by {rival} loops"),
+            Self::Contradicted { via, off_m, off_deg } => write!(
+                f,
+                "the frame through {via} disagrees by {off_m:.1} m and {off_deg:.1}° (median over the loops)"
+            ),
         }
     }
 }
@@ -62,8 +74,65 @@ pub(crate) fn judge(
         return Some(Withheld::Clustered { spread_m });
     }
     let rival = rival_size(consistency, members, rule.core_fraction);
-    (rival > 0 && (members.len() as f64) < rule.dominance_ratio * rival as f64)
-        .then_some(Withheld::Contested { rival })
+    if rival > 0 && (members.len() as f64) < rule.dominance_ratio * rival as f64 {
+        return Some(Withheld::Contested { rival });
+    }
+    contradiction(rule, loops, members, graph)
+}
+
+/// The first third robot whose frame disagrees with most of the members, at each member's place.
+fn contradiction(
+    rule: &GrantRule,
+    loops: &[PcmLoop],
+    members: &[usize],
+    graph: &dyn GraphView,
+) -> Option<Withheld> {
+    let first = loops.get(*members.first()?)?;
+    let (a, b) = (first.target.robot, first.source.robot);
+    let start = |robot| KeyframeId { robot, index: 0 };
+    // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b.
+    let placed: Vec<(Pose, Pose)> = members
+        .iter()
+        .filter_map(|&k| {
+            let member = &loops[k];
+            let a_first_from_target = graph
+                .odometry_between(start(a), member.target)?
+                .target_from_source;
+            let b_first_from_source = graph
+                .odometry_between(start(b), member.source)?
+                .target_from_source;
+            let frame = a_first_from_target * member.target_from_source * b_first_from_source.inverse();
+            Some((frame, b_first_from_source))
+        })
+        .collect();
+    if placed.is_empty() {
+        return None;
+    }
+    for (via, through) in graph.frames_through_others(a, b) {
+        let mut offsets: Vec<(f64, f64)> = placed
+            .iter()
+            .map(|(frame, b_first_from_source)| {
+                let by_loop = frame * b_first_from_source;
+                let by_cycle = through * b_first_from_source;
+                let change = by_loop.inverse() * by_cycle;
+                (change.translation.vector.norm(), change.rotation.angle())
+            })
+            .collect();
+        let disagreeing = offsets
+            .iter()
+            .filter(|(m, rad)| *m > rule.cycle_tolerance_m || *rad > rule.cycle_tolerance_rad)
+            .count();
+        if 2 * disagreeing > offsets.len() {
+            offsets.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let (off_m, off_rad) = offsets[offsets.len() / 2];
+            return Some(Withheld::Contradicted {
+                via,
+                off_m,
+                off_deg: off_rad.to_degrees(),
+            });
+        }
+    }
+    None
 }
 
 /// The largest distance between two of the keyframes (all of one robot), from the graph's poses; the

@@ -56,6 +56,11 @@ pub struct PcmParams {
     /// strongest rival frame hypothesis (the consistent core of the loops that disagree with it); a
     /// granted set that stops dominating is retracted. 0 turns it off.
     pub dominance_ratio: f64,
+    /// Where a third robot has merged with both robots of an inter-robot set, the frame through it must
+    /// agree with most of the set's loops within this distance (at each loop's place) and angle, or the
+    /// set is not granted ([`crate::earned`]).
+    pub cycle_tolerance_m: f64,
+    pub cycle_tolerance_deg: f64,
 }
 
 impl Default for PcmParams {
@@ -68,6 +73,8 @@ impl Default for PcmParams {
             min_consistent_fraction: 0.8,
             min_spread_m: 3.0,
             dominance_ratio: 2.0,
+            cycle_tolerance_m: 5.0,
+            cycle_tolerance_deg: 10.0,
         }
     }
 }
@@ -90,6 +97,8 @@ impl PcmParams {
         for (value, key) in [
             (self.min_spread_m, "min_spread_m"),
             (self.dominance_ratio, "dominance_ratio"),
+            (self.cycle_tolerance_m, "cycle_tolerance_m"),
+            (self.cycle_tolerance_deg, "cycle_tolerance_deg"),
         ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(format!("{key} must be 0 (off) or positive, got {value}"));
@@ -102,6 +111,8 @@ impl PcmParams {
         GrantRule {
             min_spread_m: self.min_spread_m,
             dominance_ratio: self.dominance_ratio,
+            cycle_tolerance_m: self.cycle_tolerance_m,
+            cycle_tolerance_rad: self.cycle_tolerance_deg.to_radians(),
             core_fraction: self.min_consistent_fraction,
         }
     }
@@ -188,6 +199,24 @@ impl Pcm {
             .collect();
         ids.sort_unstable();
         ids
+    }
+
+    /// Re-judges every decided inter-robot group's leading set against the graph as it is now (new
+    /// frames through third robots, say): returns the loops granted and withdrawn.
+    pub fn reconsider(&mut self, graph: &dyn GraphView) -> (Vec<LoopId>, Vec<LoopId>) {
+        let rule = self.params.grant_rule();
+        let (mut accepted, mut retracted) = (Vec::new(), Vec::new());
+        for (&(a, b), group) in &mut self.groups {
+            if a == b || !group.decided {
+                continue;
+            }
+            let before: BTreeSet<usize> = group.granted().iter().copied().collect();
+            group.withheld = judge(&rule, &group.loops, &group.graph, &group.clique, graph);
+            let after: BTreeSet<usize> = group.granted().iter().copied().collect();
+            accepted.extend(after.difference(&before).map(|&k| group.loops[k].id));
+            retracted.extend(before.difference(&after).map(|&k| group.loops[k].id));
+        }
+        (accepted, retracted)
     }
 
     /// Adds a loop and updates its group's clique. A loop id seen before is an error.
@@ -310,7 +339,7 @@ mod tests {
     use super::*;
     use nalgebra::Vector3;
     use skid_core::slots::{LoopClosure, RelativePose};
-    use skid_core::{Information, KeyframeId, Pose};
+    use skid_core::{Information, KeyframeId, Pose, RobotId};
 
     /// Two robots on gentle curves with exact odometry of small covariance.
     struct Curves;
@@ -476,6 +505,67 @@ mod tests {
             "redone once the right frame holds twice the wrong one's loops"
         );
         assert_eq!(accepted, (10..18).map(LoopId).collect());
+    }
+
+    /// [`Curves`] with a third robot that places robot 1 in robot 0's frame at `world_error`.
+    struct CurvesWithThirdRobot(Pose);
+
+    impl GraphView for CurvesWithThirdRobot {
+        fn pose(&self, id: KeyframeId) -> Option<Pose> {
+            Curves.pose(id)
+        }
+        fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
+            Curves.odometry_between(target, source)
+        }
+        fn keyframes(&self) -> Vec<KeyframeId> {
+            Vec::new()
+        }
+        fn loops(&self) -> Vec<LoopClosure> {
+            Vec::new()
+        }
+        fn frames_through_others(&self, a: RobotId, b: RobotId) -> Vec<(RobotId, Pose)> {
+            let first = |robot| truth(KeyframeId::new(robot, 0));
+            assert_eq!((a, b), (RobotId(0), RobotId(1)));
+            vec![(RobotId(2), first(0).inverse() * self.0 * first(1))]
+        }
+    }
+
+    #[test]
+    fn a_merge_that_disagrees_with_the_frame_through_a_third_robot_is_withdrawn() {
+        let mut pcm = Pcm::new(PcmParams {
+            min_loops_before_decision: 2,
+            ..PcmParams::default()
+        })
+        .unwrap();
+        let k = KeyframeId::new;
+        // Wrong loops that agree (robot 1 placed 30 m off and turned 90°), spread and unrivalled.
+        let wrong_world = Pose::new(Vector3::new(30.0, -4.0, 0.0), Vector3::z() * 1.5);
+        for (id, index) in [(1, 2), (2, 6), (3, 10)] {
+            pcm.add(
+                aligned_loop(id, k(0, index), k(1, index), &wrong_world, Pose::identity()),
+                &Curves,
+            )
+            .unwrap();
+        }
+        assert_eq!(pcm.accepted().len(), 3, "with no third robot the set is granted");
+        // Robot 2 has merged with both and places robot 1 where it truly is: the set is withdrawn.
+        let (accepted, retracted) = pcm.reconsider(&CurvesWithThirdRobot(Pose::identity()));
+        assert!(accepted.is_empty());
+        assert_eq!(retracted, vec![LoopId(1), LoopId(2), LoopId(3)]);
+        assert!(pcm.accepted().is_empty());
+        let update = pcm
+            .add(
+                aligned_loop(4, k(0, 14), k(1, 14), &wrong_world, Pose::identity()),
+                &CurvesWithThirdRobot(Pose::identity()),
+            )
+            .unwrap();
+        let reason = update.withheld.unwrap();
+        assert!(reason.contains("through robot2"), "{reason}");
+        // A third robot that agrees with the set (within tolerance) grants it again.
+        let nearly = wrong_world * Pose::new(Vector3::new(1.0, 0.5, 0.0), Vector3::z() * 0.02);
+        let (accepted, retracted) = pcm.reconsider(&CurvesWithThirdRobot(nearly));
+        assert_eq!(accepted, vec![LoopId(1), LoopId(2), LoopId(3), LoopId(4)]);
+        assert!(retracted.is_empty());
     }
 
     #[test]

@@ -124,6 +124,15 @@ impl Verifier for PcmVerifier {
         }
         Ok(verdict)
     }
+
+    fn reconsider(&mut self, graph: &dyn GraphView) -> PluginResult<Verdict> {
+        let (accepted, retracted) = self.pcm.reconsider(graph);
+        Ok(Verdict {
+            accepted,
+            retracted,
+            rejected: Vec::new(),
+        })
+    }
 }
 
 /// The `gnc` verifier: accepts every loop that passes the fitness check.

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use crate::{CloudView, Information, KeyframeId, LoopId, PluginResult, Pose};
+use crate::{CloudView, Information, KeyframeId, LoopId, PluginResult, Pose, RobotId};
 
 /// A relative pose with its uncertainty.
 #[derive(Clone, Debug)]
@@ -74,11 +74,28 @@ pub trait GraphView {
 
     /// Every loop closure currently in the graph.
     fn loops(&self) -> Vec<LoopClosure>;
+
+    /// Where robot `b`'s first keyframe sits in the frame of robot `a`'s first keyframe, as robots other
+    /// than `a` and `b` know it (composed through each such robot `via` that has merged with both):
+    /// one `(via, a_first_from_b_first)` per robot. Empty when no third robot has (the default). A
+    /// verifier checks a direct frame hypothesis between `a` and `b` against these, closing the cycle.
+    fn frames_through_others(&self, a: RobotId, b: RobotId) -> Vec<(RobotId, Pose)> {
+        let _ = (a, b);
+        Vec::new()
+    }
 }
 
 /// Decides which loop closures to trust.
 pub trait Verifier: Send {
     fn submit(&mut self, candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> PluginResult<Verdict>;
+
+    /// Re-judges the loops submitted so far after something outside them changed (another robot's
+    /// frame estimates arrived, see [`GraphView::frames_through_others`]); returns the loops that enter
+    /// or leave the accepted set. The default changes nothing.
+    fn reconsider(&mut self, graph: &dyn GraphView) -> PluginResult<Verdict> {
+        let _ = graph;
+        Ok(Verdict::default())
+    }
 }
 
 /// Limits on one optimisation call.

@@ -100,13 +100,18 @@ impl RobotHost {
         };
         let closure = self.loops.new_loop(pair, target_from_source, loop_information());
         let id = closure.id;
+        self.refresh_frames();
         let verdict = match self.plugins.verifier.as_mut() {
             Some(verifier) => {
                 let started = std::time::Instant::now();
+                let me = self.robot;
+                let book = &self.frames;
+                let through = move |a, b| book.through_others(me, a, b);
                 let graph = HostGraph {
                     chains: &self.chains,
                     backend: self.plugins.backend.as_ref().map(|backend| backend.graph()),
                     loops: self.loops.accepted(),
+                    through_others: Some(&through),
                 };
                 let submitted = LoopCandidate {
                     closure: closure.clone(),

@@ -141,6 +141,7 @@ impl RobotHost {
             }
             Message::OdomChain(chain) => self.on_chain(config, chain)?,
             Message::Loops(loops) => self.on_peer_loops(config, from, loops, outbox)?,
+            Message::Frames(frames) => self.on_frames(config, from, frames, outbox)?,
         }
         Ok(())
     }

@@ -129,6 +129,9 @@ impl RobotHost {
             step,
             step_covariance,
         ));
+        if let Some(frames) = self.frames_message_if_due() {
+            outbox.push(frames);
+        }
 
         if let Some(backend) = self.plugins.backend.as_mut() {
             let guess = match previous {

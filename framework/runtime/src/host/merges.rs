@@ -1,0 +1,94 @@
+//! The frames of merged robots at work: this robot's frames of the robots it holds accepted loops with
+//! (from its back-end) are refreshed and sent to its peers when they change; a peer's report is kept,
+//! and the verifier re-judges its loops against the frames it now composes through that peer
+//! ([`super::frame_book`]).
+
+use std::collections::BTreeMap;
+
+use skid_config::ResolvedConfig;
+use skid_core::{KeyframeId, Pose, RobotId, Slot};
+use skid_protocol::{FrameMsg, Frames, Message, PoseMsg};
+
+use super::RobotHost;
+use crate::error::RuntimeError;
+use crate::graph::HostGraph;
+
+impl RobotHost {
+    /// Recomputes this robot's frames of its merged peers from the back-end: the pose of each peer's
+    /// first keyframe in the frame of this robot's first keyframe, for every peer it holds accepted
+    /// loops with.
+    pub(crate) fn refresh_frames(&mut self) {
+        let Some(graph) = self.plugins.backend.as_ref().map(|backend| backend.graph()) else {
+            return;
+        };
+        let first = |robot| KeyframeId { robot, index: 0 };
+        let Some(own_first) = graph.pose(first(self.robot)) else {
+            return;
+        };
+        let mut loops_with: BTreeMap<RobotId, u32> = BTreeMap::new();
+        for closure in self.loops.accepted().values() {
+            for robot in [closure.target.robot, closure.source.robot] {
+                if robot != self.robot {
+                    *loops_with.entry(robot).or_default() += 1;
+                }
+            }
+        }
+        let own = loops_with
+            .into_iter()
+            .filter_map(|(peer, loops)| {
+                let peer_first = graph.pose(first(peer))?;
+                Some((peer, (own_first.inverse() * peer_first, loops)))
+            })
+            .collect();
+        self.frames.set_own(own);
+    }
+
+    /// A `Frames` message when this robot's frames changed since it last sent them.
+    pub(crate) fn frames_message_if_due(&mut self) -> Option<Message> {
+        self.refresh_frames();
+        let frames = self.frames.take_due()?;
+        Some(Message::Frames(Frames {
+            robot: self.robot,
+            frames: frames
+                .into_iter()
+                .map(|(robot, pose, loops)| FrameMsg {
+                    robot,
+                    sender_first_from_robot_first: PoseMsg::from_pose(&pose),
+                    loops,
+                })
+                .collect(),
+        }))
+    }
+
+    /// Keeps a peer's frames and lets the verifier re-judge the loops against the new cycles.
+    pub(crate) fn on_frames(
+        &mut self,
+        config: &ResolvedConfig,
+        from: RobotId,
+        frames: Frames,
+        outbox: &mut Vec<Message>,
+    ) -> Result<(), RuntimeError> {
+        let report: BTreeMap<RobotId, Pose> = frames
+            .frames
+            .iter()
+            .filter_map(|frame| Some((frame.robot, frame.sender_first_from_robot_first.to_pose()?)))
+            .collect();
+        self.frames.record_report(from, report);
+        self.refresh_frames();
+        let me = self.robot;
+        let book = &self.frames;
+        let through = move |a: RobotId, b: RobotId| book.through_others(me, a, b);
+        let graph = HostGraph {
+            chains: &self.chains,
+            backend: self.plugins.backend.as_ref().map(|backend| backend.graph()),
+            loops: self.loops.accepted(),
+            through_others: Some(&through),
+        };
+        let Some(verifier) = self.plugins.verifier.as_mut() else {
+            return Ok(());
+        };
+        let verdict = verifier.reconsider(&graph);
+        let verdict = verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?;
+        self.apply_verdict(config, verdict, outbox)
+    }
+}
