@@ -97,6 +97,12 @@ pub const PROFILES: &[BenchProfile] = &[
         binary: "skid-bench-table3-slam",
     },
     BenchProfile {
+        name: "aliasing",
+        summary: "false and true inter-robot merges in worlds that alias (urban grid), ten seeds, merge rules on vs off",
+        package: "skid-bench",
+        binary: "skid-bench-aliasing",
+    },
+    BenchProfile {
         name: "table4-latency",
         summary: "paper Table IV: descriptor and cloud message latency at 5-30 m over the loopback link model",
         package: "skid-bench",

@@ -11,6 +11,7 @@
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
+pub mod aliasing;
 pub mod bag_io;
 pub mod files;
 pub mod latency;

@@ -1,0 +1,209 @@
+//! The merge-trust benchmark: multi-robot runs in worlds that alias, over several seeds, with the merge
+//! rules on (the default) and off (the rules before them: no ambiguity refusal in registration, and PCM's
+//! largest consistent set accepted at once). It counts, per world and rule set, the robots β placed in
+//! robot α's frame: **false merges** (a frame more than 2 m or 5° from the truth, the one definition all
+//! SKiD benchmarks use), true merges, and robots never merged; refusing everything cannot pass, since
+//! the missed true merges are counted beside the false ones.
+//!
+//! Every run is the real runtime (`skid_runtime::Fleet` in lockstep) built from `configs/default.toml`,
+//! the variant's overrides and the bench's; the frame error is the runtime's own α/β metric
+//! (`T_β,APE`, Kim et al., SKiD-SLAM, Sec. V).
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use skid_core::Registry;
+
+use crate::slam::build_fleet;
+
+/// A frame further than this from the truth is a false merge.
+pub const FALSE_MERGE_M: f64 = 2.0;
+/// A frame turned further than this from the truth is a false merge.
+pub const FALSE_MERGE_DEG: f64 = 5.0;
+
+/// One rule set under comparison: a label and its `--set`-style overrides.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Variant {
+    pub name: String,
+    #[serde(default)]
+    pub sets: Vec<String>,
+}
+
+/// Parameters of the benchmark.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AliasingSettings {
+    pub worlds: Vec<String>,
+    /// Run seeds (`run.seed`): each seed builds another world and other routes.
+    pub seeds: Vec<u64>,
+    pub variants: Vec<Variant>,
+    pub robots: u32,
+    /// Scans per robot (10 Hz).
+    pub max_scans: u64,
+    /// `--set`-style overrides applied to every run (before the variant's).
+    pub sets: Vec<String>,
+}
+
+impl Default for AliasingSettings {
+    fn default() -> Self {
+        Self {
+            worlds: vec!["urban".to_owned()],
+            seeds: (1..=10).collect(),
+            variants: vec![
+                Variant {
+                    name: "merge rules on".to_owned(),
+                    sets: Vec::new(),
+                },
+                Variant {
+                    name: "merge rules off".to_owned(),
+                    sets: vec![
+                        "loops.ambiguous_rival_ratio=0".to_owned(),
+                        "verifier.pcm.consistency.dominance_ratio=0".to_owned(),
+                        "verifier.pcm.consistency.min_spread_m=0".to_owned(),
+                    ],
+                },
+            ],
+            robots: 3,
+            max_scans: 600,
+            sets: Vec::new(),
+        }
+    }
+}
+
+/// What became of one robot β in one run.
+#[derive(Clone, Debug, Serialize)]
+pub struct MergeRow {
+    pub world: String,
+    pub seed: u64,
+    pub variant: String,
+    pub beta_robot: usize,
+    /// `T_β,APE` when β was placed in α's frame.
+    pub frame_error_m: Option<f64>,
+    pub frame_error_deg: Option<f64>,
+    /// `merged` (true), `false merge` or `not merged`.
+    pub outcome: &'static str,
+    /// Inter-robot loops accepted in the run, and candidates refused as ambiguous by every robot.
+    pub inter_robot_loops: usize,
+    pub coarse_ambiguous: usize,
+    pub run_wall_s: f64,
+}
+
+/// Runs one world, seed and variant: one row per robot β ≥ 1.
+pub fn run_one(
+    settings: &AliasingSettings,
+    world: &str,
+    seed: u64,
+    variant: &Variant,
+    registry: &Registry,
+    out: &Path,
+) -> Result<Vec<MergeRow>> {
+    let name = format!("{world}-seed{seed}-{}", variant.name.replace(' ', "-"));
+    let mut sets = settings.sets.clone();
+    sets.extend(variant.sets.iter().cloned());
+    sets.extend([
+        format!("run.name={name}"),
+        format!("run.seed={seed}"),
+        format!("run.robots={}", settings.robots),
+        format!("run.max_scans={}", settings.max_scans),
+        format!("run.output_dir=\"{}\"", out.join("runs").display()),
+        format!("source.sim.world={world}"),
+    ]);
+    let mut fleet = build_fleet(&name, None, sets, registry)?;
+    let summary = fleet
+        .run_lockstep(|_| {})
+        .with_context(|| format!("running {name}"))?;
+    let (_, metrics) = skid_runtime::write_outputs(&fleet, &summary)?;
+    let coarse_ambiguous = metrics.robots.iter().map(|r| r.loops.coarse_ambiguous).sum();
+    Ok(metrics
+        .robots
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(beta_robot, beta)| {
+            let error = beta.alignment.as_ref().map(|a| &a.beta_alignment_error);
+            let outcome = match error {
+                None => "not merged",
+                Some(e) if e.translation_m > FALSE_MERGE_M || e.rotation_deg > FALSE_MERGE_DEG => {
+                    "false merge"
+                }
+                Some(_) => "merged",
+            };
+            MergeRow {
+                world: world.to_owned(),
+                seed,
+                variant: variant.name.clone(),
+                beta_robot,
+                frame_error_m: error.map(|e| e.translation_m),
+                frame_error_deg: error.map(|e| e.rotation_deg),
+                outcome,
+                inter_robot_loops: metrics.inter_robot_loops_accepted,
+                coarse_ambiguous,
+                run_wall_s: summary.wall_s,
+            }
+        })
+        .collect())
+}
+
+/// The summary: per world and variant, the robots β merged truly, falsely and not at all, and the
+/// candidates refused as ambiguous.
+pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> String {
+    let header = [
+        "world",
+        "rules",
+        "runs",
+        "robots β",
+        "false merges ↓",
+        "true merges ↑",
+        "not merged",
+        "worst true-merge error [m / °]",
+        "ambiguous candidates refused",
+    ]
+    .map(str::to_owned);
+    let mut body = Vec::new();
+    for world in &settings.worlds {
+        for variant in &settings.variants {
+            let mine: Vec<&MergeRow> = rows
+                .iter()
+                .filter(|r| &r.world == world && r.variant == variant.name)
+                .collect();
+            let count = |outcome: &str| mine.iter().filter(|r| r.outcome == outcome).count();
+            let true_merges: Vec<&&MergeRow> = mine.iter().filter(|r| r.outcome == "merged").collect();
+            let worst_m = true_merges
+                .iter()
+                .filter_map(|r| r.frame_error_m)
+                .fold(0.0, f64::max);
+            let worst_deg = true_merges
+                .iter()
+                .filter_map(|r| r.frame_error_deg)
+                .fold(0.0, f64::max);
+            let mut seeds: Vec<u64> = mine.iter().map(|r| r.seed).collect();
+            seeds.dedup();
+            let ambiguous: usize = seeds
+                .iter()
+                .filter_map(|seed| mine.iter().find(|r| r.seed == *seed))
+                .map(|r| r.coarse_ambiguous)
+                .sum();
+            body.push(vec![
+                world.clone(),
+                variant.name.clone(),
+                seeds.len().to_string(),
+                mine.len().to_string(),
+                count("false merge").to_string(),
+                true_merges.len().to_string(),
+                count("not merged").to_string(),
+                format!("{worst_m:.2} / {worst_deg:.2}"),
+                ambiguous.to_string(),
+            ]);
+        }
+    }
+    format!(
+        "# aliasing\n\nMerges of robots β into robot α's frame in worlds that alias, {} robots, {} scans per robot, seeds {:?}. A false merge places β's frame more than {FALSE_MERGE_M} m or {FALSE_MERGE_DEG}° from the truth; \"merge rules off\" turns off the ambiguity refusal and PCM's earned-merge rule (the behaviour before them). Runtime overrides: `{}`.\n\n{}",
+        settings.robots,
+        settings.max_scans,
+        settings.seeds,
+        settings.sets.join("`, `"),
+        crate::report::markdown_table(&header, &body),
+    )
+}

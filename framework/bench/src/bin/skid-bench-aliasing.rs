@@ -1,0 +1,34 @@
+//! `cargo xtask bench aliasing`: false and true inter-robot merges in worlds that alias, over several
+//! seeds, with the merge rules on and off. Parameters in `configs/bench/aliasing.toml`; the method is
+//! `skid_bench::aliasing`'s. Run outputs go to `runs/` under the output folder.
+
+use anyhow::Context;
+use skid_bench::aliasing::{AliasingSettings, aliasing_markdown, run_one};
+
+fn main() -> anyhow::Result<()> {
+    skid_bench::run_profile("aliasing", |settings: &AliasingSettings, report, out| {
+        let registry = skid_builtin::registry().context("registering the built-in plugins")?;
+        let mut rows = Vec::new();
+        for world in &settings.worlds {
+            for &seed in &settings.seeds {
+                for variant in &settings.variants {
+                    for row in run_one(settings, world, seed, variant, &registry, out)? {
+                        eprintln!(
+                            "{world} seed {seed} {} (β = robot {}): {} ({:?} m, {:?}°), {} loops, {:.0} s",
+                            variant.name,
+                            row.beta_robot,
+                            row.outcome,
+                            row.frame_error_m,
+                            row.frame_error_deg,
+                            row.inter_robot_loops,
+                            row.run_wall_s
+                        );
+                        report.push(&row)?;
+                        rows.push(row);
+                    }
+                }
+            }
+        }
+        Ok(aliasing_markdown(settings, &rows))
+    })
+}
