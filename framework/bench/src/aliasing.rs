@@ -36,7 +36,8 @@ pub struct Variant {
 #[serde(default, deny_unknown_fields)]
 pub struct AliasingSettings {
     pub worlds: Vec<String>,
-    /// Run seeds (`run.seed`): each seed builds another world and other routes.
+    /// Seeds (`source.sim.seed`, and `run.seed` beside it): each builds another world, other routes and
+    /// other noise.
     pub seeds: Vec<u64>,
     pub variants: Vec<Variant>,
     pub robots: u32,
@@ -66,7 +67,7 @@ impl Default for AliasingSettings {
                 },
             ],
             robots: 3,
-            max_scans: 600,
+            max_scans: 900,
             sets: Vec::new(),
         }
     }
@@ -105,6 +106,7 @@ pub fn run_one(
     sets.extend([
         format!("run.name={name}"),
         format!("run.seed={seed}"),
+        format!("source.sim.seed={seed}"),
         format!("run.robots={}", settings.robots),
         format!("run.max_scans={}", settings.max_scans),
         format!("run.output_dir=\"{}\"", out.join("runs").display()),
