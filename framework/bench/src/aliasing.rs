@@ -55,7 +55,7 @@ impl Default for AliasingSettings {
             variants: vec![
                 Variant {
                     name: "merge rules on".to_owned(),
-                    sets: Vec::new(),
+                    sets: vec!["loops.ambiguous_rival_ratio=0.5".to_owned()],
                 },
                 Variant {
                     name: "merge rules off".to_owned(),

@@ -256,7 +256,11 @@ pub struct LoopsSection {
     /// Refuse a loop whose coarse registration found a rival alignment (a distinct one, among the
     /// correspondences the best leaves out) with at least this fraction of the best one's inliers: a
     /// symmetric or repetitive place admits several alignments, and picking one there is how false
-    /// inter-robot merges begin. 0 turns the test off; at 1 only a rival as strong as the best refuses.
+    /// inter-robot merges begin. 0 turns the test off (the default); at 1 only a rival as strong as the
+    /// best refuses. Off by default because it is not yet selective enough: on the simulated registration
+    /// table, 0.5 refuses no true pair on planetary or cave ground but 28 % of the true urban pairs (a
+    /// street admits shifted alignments nearly as strong), and only 3 of 13 wrong urban ones; a ray-cast
+    /// hall with 90° symmetry scores 0.62 and the real HDL-32E pair 0.
     pub ambiguous_rival_ratio: f64,
 }
 
@@ -274,7 +278,7 @@ impl Default for LoopsSection {
             optimize_every_keyframes: 10,
             optimize_iterations: 30,
             refine_invalid_coarse: true,
-            ambiguous_rival_ratio: 0.5,
+            ambiguous_rival_ratio: 0.0,
         }
     }
 }

@@ -274,6 +274,4 @@ impl skid_core::PluginParams for KissMatcherConfig {
 }
 
 #[cfg(test)]
-mod rival_tests;
-#[cfg(test)]
 mod tests;

@@ -5,14 +5,14 @@
 
 use std::time::Instant;
 
-use nalgebra::{Translation3, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use skid_core::slots::CoarseAlignment;
 use skid_core::{CloudView, Pose};
 
 use crate::features::{compute_features, voxel_sample};
 use crate::matching::{match_descriptors, matched_points};
 use crate::pruning::ConsistencyGraph;
-use crate::solver::{GncParams, component_wise_translation, gnc_tls_rotation};
+use crate::solver::solve;
 use crate::{KissMatcherConfig, PruningMode};
 
 /// Wall-clock seconds spent in each stage.
@@ -217,72 +217,4 @@ pub(crate) fn run(
     report.alignment.valid = true;
     report.timings.total_s = start.elapsed().as_secs_f64();
     report
-}
-
-/// GNC-TLS rotation on the chain of translation-invariant measurements (consecutive differences, closed
-/// into a loop, as the reference does), then component-wise TLS translation over every pruned
-/// correspondence. Returns the pose, the rotation inliers and the final inliers.
-pub(crate) fn solve(
-    config: &KissMatcherConfig,
-    source: &[Vector3<f64>],
-    target: &[Vector3<f64>],
-) -> Option<(Pose, usize, usize)> {
-    let n = source.len();
-    let order = chain_order(n);
-    let (source_tims, target_tims): (Vec<_>, Vec<_>) = (0..n)
-        .map(|k| {
-            let (here, next) = (order[k], order[(k + 1) % n]);
-            (source[next] - source[here], target[next] - target[here])
-        })
-        .unzip();
-    let translation_bound_m = config.noise_bound_m(config.solver_noise_bound_gain);
-    let gnc = GncParams {
-        noise_bound_m: 2.0 * translation_bound_m,
-        gnc_factor: config.gnc_factor,
-        max_iterations: config.gnc_max_iterations,
-        cost_threshold: config.gnc_cost_threshold,
-    };
-    let rotation = gnc_tls_rotation(&source_tims, &target_tims, &gnc)?;
-    let differences: Vec<Vector3<f64>> = source
-        .iter()
-        .zip(target)
-        .map(|(p, q)| q - rotation.rotation * p)
-        .collect();
-    let (translation, inliers) = component_wise_translation(&differences, translation_bound_m)?;
-    let pose = Pose::from_parts(
-        Translation3::from(translation),
-        UnitQuaternion::from_rotation_matrix(&rotation.rotation),
-    );
-    let finite = pose
-        .translation
-        .vector
-        .iter()
-        .chain(pose.rotation.coords.iter())
-        .all(|v| v.is_finite());
-    finite.then(|| {
-        (
-            pose,
-            rotation.inlier_count,
-            inliers.iter().filter(|&&i| i).count(),
-        )
-    })
-}
-
-/// A fixed pseudo-random order of `n` correspondences (Fisher–Yates driven by SplitMix64 seeded with
-/// `n`), so consecutive links of the measurement chain join correspondences far apart in the scan.
-fn chain_order(n: usize) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..n).collect();
-    let mut state = (n as u64) ^ 0x9e37_79b9_7f4a_7c15;
-    let mut next = || {
-        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    };
-    for i in (1..n).rev() {
-        let j = (next() % (i as u64 + 1)) as usize;
-        order.swap(i, j);
-    }
-    order
 }

@@ -52,7 +52,7 @@ pub(crate) fn rival_inliers(
     }
     let kept_source: Vec<Vector3<f64>> = kept.iter().map(|&k| left_source[k]).collect();
     let kept_target: Vec<Vector3<f64>> = kept.iter().map(|&k| left_target[k]).collect();
-    match crate::pipeline::solve(config, &kept_source, &kept_target) {
+    match crate::solver::solve(config, &kept_source, &kept_target) {
         Some((rival, rotation_inliers, inliers)) if rotation_inliers >= 2 && distinct(best, &rival) => {
             inliers
         }

@@ -1,9 +1,13 @@
 //! The decoupled robust solver of TEASER++ (Yang et al., T-RO 2020) as KISS-Matcher (Lim et al., ICRA
 //! 2025) uses it: rotation by graduated non-convexity with a truncated-least-squares cost (GNC-TLS, Yang
 //! et al., RA-L 2020) on translation-invariant measurements, then translation by component-wise TLS
-//! (adaptive voting, exact in one dimension).
+//! (adaptive voting, exact in one dimension). [`solve`] composes the two, for the pipeline and for the
+//! second-best hypothesis test.
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use skid_core::Pose;
+
+use crate::KissMatcherConfig;
 
 /// GNC-TLS settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -194,6 +198,74 @@ pub fn component_wise_translation(
         }
     }
     Some((translation, inliers))
+}
+
+/// GNC-TLS rotation on the chain of translation-invariant measurements (consecutive differences, closed
+/// into a loop, as the reference does), then component-wise TLS translation over every pruned
+/// correspondence. Returns the pose, the rotation inliers and the final inliers.
+pub(crate) fn solve(
+    config: &KissMatcherConfig,
+    source: &[Vector3<f64>],
+    target: &[Vector3<f64>],
+) -> Option<(Pose, usize, usize)> {
+    let n = source.len();
+    let order = chain_order(n);
+    let (source_tims, target_tims): (Vec<_>, Vec<_>) = (0..n)
+        .map(|k| {
+            let (here, next) = (order[k], order[(k + 1) % n]);
+            (source[next] - source[here], target[next] - target[here])
+        })
+        .unzip();
+    let translation_bound_m = config.noise_bound_m(config.solver_noise_bound_gain);
+    let gnc = GncParams {
+        noise_bound_m: 2.0 * translation_bound_m,
+        gnc_factor: config.gnc_factor,
+        max_iterations: config.gnc_max_iterations,
+        cost_threshold: config.gnc_cost_threshold,
+    };
+    let rotation = gnc_tls_rotation(&source_tims, &target_tims, &gnc)?;
+    let differences: Vec<Vector3<f64>> = source
+        .iter()
+        .zip(target)
+        .map(|(p, q)| q - rotation.rotation * p)
+        .collect();
+    let (translation, inliers) = component_wise_translation(&differences, translation_bound_m)?;
+    let pose = Pose::from_parts(
+        Translation3::from(translation),
+        UnitQuaternion::from_rotation_matrix(&rotation.rotation),
+    );
+    let finite = pose
+        .translation
+        .vector
+        .iter()
+        .chain(pose.rotation.coords.iter())
+        .all(|v| v.is_finite());
+    finite.then(|| {
+        (
+            pose,
+            rotation.inlier_count,
+            inliers.iter().filter(|&&i| i).count(),
+        )
+    })
+}
+
+/// A fixed pseudo-random order of `n` correspondences (Fisher–Yates driven by SplitMix64 seeded with
+/// `n`), so consecutive links of the measurement chain join correspondences far apart in the scan.
+fn chain_order(n: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..n).collect();
+    let mut state = (n as u64) ^ 0x9e37_79b9_7f4a_7c15;
+    let mut next = || {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    for i in (1..n).rev() {
+        let j = (next() % (i as u64 + 1)) as usize;
+        order.swap(i, j);
+    }
+    order
 }
 
 #[cfg(test)]

@@ -37,8 +37,9 @@ pub struct Row {
     pub method: String,
     pub pairs: usize,
     pub success_rate_percent: f64,
-    /// Coarse methods: the success rate when a result whose rival alignment is nearly as strong counts
-    /// as a refusal, as the runtime counts it (`loops.ambiguous_rival_ratio` at its default).
+    /// Coarse methods: the success rate when a result whose rival alignment holds at least
+    /// [`REPORTED_RIVAL_RATIO`] of its inliers counts as a refusal, as the runtime counts it with
+    /// `loops.ambiguous_rival_ratio` set to that.
     pub unambiguous_success_percent: Option<f64>,
     pub rte_cm: Option<f64>,
     pub rre_deg: Option<f64>,
@@ -131,11 +132,15 @@ pub struct Outcome {
     pub cpu_ms: Option<f64>,
 }
 
+/// The `loops.ambiguous_rival_ratio` the registration tables report the cost of (the runtime's test is
+/// off by default).
+pub const REPORTED_RIVAL_RATIO: f64 = 0.5;
+
 impl Outcome {
-    /// True when the runtime would refuse this result as ambiguous: its rival alignment holds at least
-    /// the default `loops.ambiguous_rival_ratio` of its inliers.
+    /// True when the runtime, with `loops.ambiguous_rival_ratio` = [`REPORTED_RIVAL_RATIO`], would refuse
+    /// this result as ambiguous.
     pub fn ambiguous(&self) -> bool {
-        let ratio = skid_config::LoopsSection::default().ambiguous_rival_ratio;
+        let ratio = REPORTED_RIVAL_RATIO;
         match (self.inliers, self.rival_inliers) {
             (Some(inliers), Some(rival)) => {
                 ratio > 0.0 && rival > 0 && rival as f64 >= ratio * inliers as f64

@@ -80,6 +80,8 @@ pub struct PairResult {
     pub valid: bool,
     /// Final inliers of a coarse method (of its coarse stage when refined).
     pub inliers: Option<usize>,
+    /// Inliers of the coarse method's rival alignment (see `CoarseAlignment::rival_inlier_count`).
+    pub rival_inliers: Option<usize>,
     /// A coarse result the runtime would refuse as ambiguous (its rival alignment nearly as strong).
     pub ambiguous: bool,
     pub time_ms: f64,
@@ -115,6 +117,7 @@ fn result_for(world: WorldKind, pair: &SimPair, method: &str) -> PairResult {
         success: false,
         valid: false,
         inliers: None,
+        rival_inliers: None,
         ambiguous: false,
         time_ms: 0.0,
         cpu_ms: None,
@@ -149,6 +152,7 @@ fn world_results(
                 success,
                 valid: outcome.valid,
                 inliers: outcome.inliers,
+                rival_inliers: outcome.rival_inliers,
                 ambiguous: outcome.ambiguous(),
                 time_ms: outcome.time_ms,
                 cpu_ms: outcome.cpu_ms,

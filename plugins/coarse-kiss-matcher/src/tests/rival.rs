@@ -5,7 +5,7 @@ use nalgebra::{Point3, Vector3};
 use skid_core::slots::CoarseRegistration;
 use skid_core::{Cloud, Point, Pose};
 
-use super::tests::{matcher, real_pair};
+use super::{matcher, real_pair};
 
 /// The hall: a 30 m square room, 5 m high, with four identical groups of pillars and crates, each a
 /// quarter turn of the last about the room's centre. Nothing in one quarter tells it from the others.

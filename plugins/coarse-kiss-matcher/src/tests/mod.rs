@@ -1,5 +1,6 @@
 //! Tests of the `kiss_matcher` plugin as a whole: the coarse conformance suite on synthetic scenes, the
-//! real HDL-32E pair (fast_gicp's unit-test data) yawed all around and moved 10 m, and bad input.
+//! real HDL-32E pair (fast_gicp's unit-test data) yawed all around and moved 10 m, and bad input; the
+//! second-best hypothesis test in [`rival`].
 
 use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
 use skid_core::slots::CoarseRegistration;
@@ -8,6 +9,8 @@ use skid_testkit::pose_error;
 use skid_testkit::registration::{RegistrationExpectations, check_coarse};
 
 use super::*;
+
+mod rival;
 
 pub(crate) fn matcher() -> KissMatcher {
     KissMatcher::new(
