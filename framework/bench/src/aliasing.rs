@@ -1,6 +1,7 @@
 //! The merge-trust benchmark: multi-robot runs in worlds that alias, over several seeds, with the merge
-//! rules on (the default) and off (the rules before them: no ambiguity refusal in registration, and PCM's
-//! largest consistent set accepted at once). It counts, per world and rule set, the robots β placed in
+//! rules on and off (the rules before them: no ambiguity refusal in registration, PCM's largest
+//! consistent set accepted at once, no check against the frame through a third robot), or any other
+//! variants the profile lists. It counts, per world and rule set, the robots β placed in
 //! robot α's frame: **false merges** (a frame more than 2 m or 5° from the truth, the one definition all
 //! SKiD benchmarks use), true merges, and robots never merged; refusing everything cannot pass, since
 //! the missed true merges are counted beside the false ones.
@@ -58,11 +59,13 @@ impl Default for AliasingSettings {
                     sets: vec!["loops.ambiguous_rival_ratio=0.5".to_owned()],
                 },
                 Variant {
-                    name: "merge rules off".to_owned(),
+                    name: "no merge rules".to_owned(),
                     sets: vec![
                         "loops.ambiguous_rival_ratio=0".to_owned(),
                         "verifier.pcm.consistency.dominance_ratio=0".to_owned(),
                         "verifier.pcm.consistency.min_spread_m=0".to_owned(),
+                        "verifier.pcm.consistency.cycle_tolerance_m=1e9".to_owned(),
+                        "verifier.pcm.consistency.cycle_tolerance_deg=1e9".to_owned(),
                     ],
                 },
             ],
@@ -201,10 +204,16 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
         }
     }
     format!(
-        "# aliasing\n\nMerges of robots β into robot α's frame in worlds that alias, {} robots, {} scans per robot, seeds {:?}. A false merge places β's frame more than {FALSE_MERGE_M} m or {FALSE_MERGE_DEG}° from the truth; \"merge rules off\" turns off the ambiguity refusal and PCM's earned-merge rule (the behaviour before them). Runtime overrides: `{}`.\n\n{}",
+        "# aliasing\n\nMerges of robots β into robot α's frame in worlds that alias, {} robots, {} scans per robot, seeds {:?}. A false merge places β's frame more than {FALSE_MERGE_M} m or {FALSE_MERGE_DEG}° from the truth. Variants: {}. Runtime overrides: `{}`.\n\n{}",
         settings.robots,
         settings.max_scans,
         settings.seeds,
+        settings
+            .variants
+            .iter()
+            .map(|v| format!("{} (`{}`)", v.name, v.sets.join("`, `")))
+            .collect::<Vec<_>>()
+            .join("; "),
         settings.sets.join("`, `"),
         crate::report::markdown_table(&header, &body),
     )
