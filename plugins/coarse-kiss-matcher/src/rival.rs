@@ -29,12 +29,7 @@ pub(crate) fn rival_inliers(
     best: &Pose,
 ) -> usize {
     let explained_m = 2.0 * config.noise_bound_m(config.pruning_noise_bound_gain);
-    let (left_source, left_target): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = source
-        .iter()
-        .zip(target)
-        .filter(|(p, q)| (*q - best.transform_point(&(**p).into()).coords).norm() > explained_m)
-        .map(|(p, q)| (*p, *q))
-        .unzip();
+    let (left_source, left_target) = unexplained(source, target, best, explained_m);
     if left_source.len() < config.min_inliers.max(3) {
         return 0;
     }
@@ -58,6 +53,22 @@ pub(crate) fn rival_inliers(
         }
         _ => 0,
     }
+}
+
+/// The correspondences `source[i] ↔ target[i]` that `best` leaves further apart than `explained_m`:
+/// where a rival alignment is looked for.
+pub fn unexplained(
+    source: &[Vector3<f64>],
+    target: &[Vector3<f64>],
+    best: &Pose,
+    explained_m: f64,
+) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    source
+        .iter()
+        .zip(target)
+        .filter(|(p, q)| (*q - best.transform_point(&(**p).into()).coords).norm() > explained_m)
+        .map(|(p, q)| (*p, *q))
+        .unzip()
 }
 
 /// True when two alignments differ by more than the same-alignment tolerances.

@@ -296,12 +296,8 @@ fn rival_inliers(
     params: &RansacParams,
 ) -> usize {
     let explained_m = 2.0 * params.inlier_distance_m;
-    let (left_source, left_target): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = source
-        .iter()
-        .zip(target)
-        .filter(|(p, q)| (*q - best.transform_point(&(**p).into()).coords).norm() > explained_m)
-        .map(|(p, q)| (*p, *q))
-        .unzip();
+    let (left_source, left_target) =
+        skid_coarse_kiss_matcher::rival::unexplained(source, target, best, explained_m);
     if left_source.len() < 3 {
         return 0;
     }
