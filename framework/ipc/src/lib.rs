@@ -22,7 +22,10 @@ pub use error::{IpcError, IpcResult};
 pub use node::{CLEANUP_PERIOD, CleanupReport, IpcNode, ProcessNode, ThreadNode};
 pub use port::{Loan, PublisherEvents, Received, TopicPublisher, TopicSubscriber};
 pub use topic::{Descriptors, FrontEndScans, GraphUpdates, Keyframes, Topic};
-pub use wire::{FRONT_END_MESSAGE_BYTES, FrontEndHeader, FrontEndStatus, GraphUpdateHeader, GraphUpdateKind};
+pub use wire::{
+    FRONT_END_DEGENERATE, FRONT_END_MESSAGE_BYTES, FrontEndHeader, FrontEndStatus, GraphUpdateHeader,
+    GraphUpdateKind,
+};
 
 /// The iceoryx2 service kinds, for naming `IpcNode<ipc::Service>` and `IpcNode<local::Service>`.
 pub use iceoryx2::service::{ipc, local};

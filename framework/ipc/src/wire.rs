@@ -89,7 +89,7 @@ pub const FRONT_END_MESSAGE_BYTES: usize = 192;
 /// Header of one front-end output; the keyframe's points follow it.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, ZeroCopySend)]
-#[type_name("skid/FrontEndHeader@1")]
+#[type_name("skid/FrontEndHeader@2")]
 pub struct FrontEndHeader {
     pub stamp_nanos: u64,
     pub keyframe_stamp_nanos: u64,
@@ -111,9 +111,13 @@ pub struct FrontEndHeader {
     pub keyframe_world_from_sensor: PoseWire,
     pub ground_truth: PoseWire,
     pub message_len: u32,
-    pub reserved: u32,
+    /// Bits of [`FRONT_END_DEGENERATE`].
+    pub flags: u32,
     pub message: [u8; FRONT_END_MESSAGE_BYTES],
 }
+
+/// Set in [`FrontEndHeader::flags`] when the odometry found the scan degenerate.
+pub const FRONT_END_DEGENERATE: u32 = 1;
 
 impl Default for FrontEndHeader {
     fn default() -> Self {
@@ -133,7 +137,7 @@ impl Default for FrontEndHeader {
             keyframe_world_from_sensor: PoseWire::IDENTITY,
             ground_truth: PoseWire::IDENTITY,
             message_len: 0,
-            reserved: 0,
+            flags: 0,
             message: [0; FRONT_END_MESSAGE_BYTES],
         }
     }

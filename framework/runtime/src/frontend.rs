@@ -19,6 +19,8 @@ pub enum OdometryOutcome {
     Registered {
         world_from_sensor: Pose,
         keyframe: Option<Keyframe>,
+        /// The odometry found the scan degenerate (see `OdometryUpdate::degenerate`).
+        degenerate: bool,
     },
     /// The odometry refused the scan (too few points, stamp going backwards, …); the run goes on.
     Skipped { reason: String },
@@ -71,6 +73,7 @@ impl FrontEnd {
             Some(Ok(update)) => Some(OdometryOutcome::Registered {
                 world_from_sensor: update.world_from_sensor,
                 keyframe: update.keyframe,
+                degenerate: update.degenerate,
             }),
             Some(Err(PluginError::InvalidInput(reason))) => Some(OdometryOutcome::Skipped { reason }),
             Some(Err(source)) => {

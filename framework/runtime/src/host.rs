@@ -134,6 +134,11 @@ impl RobotHost {
         self.own.scans_skipped()
     }
 
+    /// Registered scans the odometry found degenerate.
+    pub fn degenerate_scans(&self) -> u64 {
+        self.own.degenerate_scans()
+    }
+
     /// Points read from the source.
     pub fn points_read(&self) -> usize {
         self.own.points_read()

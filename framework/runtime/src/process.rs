@@ -20,7 +20,8 @@ use skid_core::msgs::PoseWire;
 use skid_core::pose::pose_to_wire;
 use skid_core::{Cloud, Keyframe, KeyframeId, PluginError, Pose, Registry, RobotId, Slot};
 use skid_ipc::{
-    FrontEndHeader, FrontEndScans, FrontEndStatus, ProcessNode, TopicPublisher, TopicSubscriber, ipc,
+    FRONT_END_DEGENERATE, FrontEndHeader, FrontEndScans, FrontEndStatus, ProcessNode, TopicPublisher,
+    TopicSubscriber, ipc,
 };
 
 use crate::error::{RuntimeError, output_error};
@@ -313,6 +314,7 @@ fn decode(
                 world_from_sensor: pose_of(&header.keyframe_world_from_sensor),
                 cloud: Cloud::new(points.to_vec()),
             }),
+            degenerate: header.flags & FRONT_END_DEGENERATE != 0,
         }),
         None => return Err(failed(format!("unknown front-end status code {}", header.status))),
     };
@@ -369,8 +371,12 @@ fn encode(
                 Some(OdometryOutcome::Registered {
                     world_from_sensor,
                     keyframe,
+                    degenerate,
                 }) => {
                     header.status = FrontEndStatus::Registered as u32;
+                    if *degenerate {
+                        header.flags |= FRONT_END_DEGENERATE;
+                    }
                     header.world_from_sensor = pose_to_wire(world_from_sensor);
                     if let Some(keyframe) = keyframe {
                         header.keyframe_index = keyframe.id.index;
@@ -468,4 +474,41 @@ fn crash_after(robot: RobotId) -> Option<u64> {
     let value = std::env::var(CRASH_AFTER_VAR).ok()?;
     let (who, after) = value.split_once(':')?;
     (who.parse::<u32>().ok()? == robot.0).then(|| after.parse().ok())?
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A registered output as a front-end process publishes it and the host reads it back.
+    fn round_trip(degenerate: bool) -> FrontEndOutput {
+        let output = FrontEndOutput {
+            sequence: 7,
+            stamp_nanos: 123,
+            points: 1000,
+            ground_truth: None,
+            source_ms: 1.0,
+            odometry_ms: 2.0,
+            odometry: Some(OdometryOutcome::Registered {
+                world_from_sensor: Pose::identity(),
+                keyframe: None,
+                degenerate,
+            }),
+        };
+        let published = Ok(Some(output));
+        let (header, points) = encode(RobotId(2), 7, &published);
+        decode(&header, points).unwrap().unwrap()
+    }
+
+    #[test]
+    fn the_degenerate_flag_crosses_the_process_boundary() {
+        for degenerate in [false, true] {
+            let output = round_trip(degenerate);
+            assert!(
+                matches!(output.odometry, Some(OdometryOutcome::Registered { degenerate: d, .. }) if d == degenerate),
+                "{output:?}"
+            );
+            assert_eq!((output.sequence, output.points), (7, 1000));
+        }
+    }
 }

@@ -17,6 +17,9 @@ pub struct RobotSummary {
     pub scans: usize,
     pub scans_read: usize,
     pub scans_skipped: u64,
+    /// Registered scans whose geometry left a direction of the motion to the odometry's prior or IMU
+    /// (expected on open ground and in long corridors; 0 for odometries that cannot tell).
+    pub degenerate_scans: u64,
     pub keyframes: usize,
     pub mean_points_per_scan: f64,
     /// Total milliseconds spent per stage.
@@ -102,6 +105,7 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
         scans: host.scans().len(),
         scans_read: host.scans_read(),
         scans_skipped: host.scans_skipped(),
+        degenerate_scans: host.degenerate_scans(),
         keyframes: host.keyframes().len(),
         mean_points_per_scan: if host.scans().is_empty() {
             0.0

@@ -171,6 +171,7 @@ impl Odometry for GroundTruthOdometry {
             world_from_sensor,
             previous_from_current,
             keyframe,
+            degenerate: false,
         })
     }
 }

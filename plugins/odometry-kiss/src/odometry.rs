@@ -378,6 +378,7 @@ impl Odometry for KissIcpOdometry {
             world_from_sensor,
             previous_from_current,
             keyframe,
+            degenerate,
         })
     }
 }

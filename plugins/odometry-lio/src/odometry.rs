@@ -389,9 +389,11 @@ impl Odometry for LioOdometry {
         }
         let filtered = voxel_downsample(&deskewed, self.config.map_voxel_m as f32);
         let points = positions(&filtered);
+        let mut degenerate = false;
         if !self.map.is_empty() {
             match self.run_update(&points) {
                 Some(outcome) => {
+                    degenerate = outcome.degenerate;
                     if outcome.degenerate {
                         self.counters.degenerate_scans += 1;
                         // Expected on open ground (planetary terrain, long corridors): said once per
@@ -418,6 +420,7 @@ impl Odometry for LioOdometry {
                     self.last_update = Some(outcome);
                 }
                 None => {
+                    degenerate = true;
                     self.counters.unconstrained_scans += 1;
                     if self.counters.unconstrained_scans.is_power_of_two() {
                         tracing::warn!(
@@ -468,6 +471,7 @@ impl Odometry for LioOdometry {
             world_from_sensor,
             previous_from_current,
             keyframe,
+            degenerate,
         })
     }
 }

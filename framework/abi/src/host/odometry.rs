@@ -121,6 +121,7 @@ impl Odometry for DynOdometry {
             world_from_sensor,
             previous_from_current,
             keyframe,
+            degenerate: false,
         })
     }
 }

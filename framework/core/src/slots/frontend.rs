@@ -29,6 +29,11 @@ pub struct OdometryUpdate {
     pub previous_from_current: Pose,
     /// Set when the keyframe policy fired on this scan.
     pub keyframe: Option<Keyframe>,
+    /// The scan left at least one direction of the motion weakly constrained or unconstrained, so the
+    /// odometry leaned on its motion prior (or the IMU) there: expected on open ground and in long
+    /// corridors, and counted per robot in the run summary (`degenerate_scans`). `lio` and `kiss_icp`
+    /// test it; odometries that cannot tell (ground truth, C plugins) say `false`.
+    pub degenerate: bool,
 }
 
 /// Estimates the robot's motion scan by scan and decides which scans become keyframes.

@@ -30,6 +30,8 @@ pub(crate) struct OwnTrack {
     /// Scans the odometry refused (too few points, a stamp going backwards, …), counted and warned
     /// about at a limited rate.
     skipped_scans: WarnLimiter,
+    /// Registered scans the odometry found degenerate (a direction of the motion left to its prior).
+    degenerate_scans: u64,
 }
 
 impl OwnTrack {
@@ -42,6 +44,11 @@ impl OwnTrack {
     /// Counts one scan the odometry skipped; returns its number when the warning is due.
     pub(crate) fn count_skipped(&mut self) -> Option<u64> {
         self.skipped_scans.occurrence()
+    }
+
+    /// Counts one registered scan the odometry found degenerate.
+    pub(crate) fn count_degenerate(&mut self) {
+        self.degenerate_scans += 1;
     }
 
     /// Records one registered scan.
@@ -86,5 +93,9 @@ impl OwnTrack {
 
     pub(crate) fn scans_skipped(&self) -> u64 {
         self.skipped_scans.count()
+    }
+
+    pub(crate) fn degenerate_scans(&self) -> u64 {
+        self.degenerate_scans
     }
 }

@@ -81,8 +81,12 @@ impl RobotHost {
             Some(OdometryOutcome::Registered {
                 world_from_sensor,
                 keyframe,
+                degenerate,
             }) => {
                 self.add_stage_ms("odometry", output.odometry_ms);
+                if degenerate {
+                    self.own.count_degenerate();
+                }
                 (world_from_sensor, keyframe)
             }
         };
