@@ -101,6 +101,15 @@ impl ConfigSources {
         resolve(&figment, raw, registry)
     }
 
+    /// [`Self::load`], then checks that the files and folders every selected plugin names exist on this
+    /// machine (`skid config check`); the error names the layer that set the key, and the key.
+    pub fn load_and_check_files(&self, registry: &Registry) -> Result<ResolvedConfig, ConfigError> {
+        let config = self.load(registry)?;
+        let figment = self.figment()?;
+        crate::resolve::check_files(&figment, &config)?;
+        Ok(config)
+    }
+
     /// Names of the profiles available: the configuration folder's and the embedded ones, sorted.
     pub fn available_profiles(&self) -> Vec<String> {
         let mut names: Vec<String> = EMBEDDED_PROFILES

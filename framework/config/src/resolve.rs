@@ -202,6 +202,10 @@ fn resolve_slot(
         ));
     }
     if selected != NONE_PLUGIN && !known.iter().any(|info| info.name == selected) {
+        if let Some(how_to_build) = registry.left_out(slot, selected) {
+            let message = format!("the {slot} plugin `{selected}` is not in this build: {how_to_build}");
+            return Err(invalid(figment, &plugin_key, message));
+        }
         let message = format!(
             "unknown {slot} plugin `{selected}`; known {slot} plugins: {}{}",
             known_names(),
@@ -236,6 +240,11 @@ fn resolve_slot(
             return Err(invalid(figment, &key, message));
         }
         let Some(info) = known.iter().find(|info| &info.name == name) else {
+            // The parameters of a plugin this build leaves out cannot be checked; unless it is selected
+            // (refused above) they are kept for the builds that have it, as a shared robot file may be.
+            if registry.left_out(slot, name).is_some() {
+                continue;
+            }
             let message = format!(
                 "`{name}` is not a {slot} plugin; expected `plugin` or a table named after one of: {}",
                 known_names()
@@ -331,6 +340,20 @@ fn merged(defaults: &toml::Table, given: &toml::Table) -> toml::Table {
         out.insert(key.clone(), combined);
     }
     out
+}
+
+/// Checks the files every selected plugin's parameters name (see `ParsedParams::check_files`).
+pub(crate) fn check_files(figment: &Figment, config: &ResolvedConfig) -> Result<(), ConfigError> {
+    for slot in Slot::ALL {
+        let resolved = config.slot(slot);
+        if let Some(parsed) = &resolved.parsed {
+            parsed.check_files().map_err(|error| {
+                let key = format!("{}.{}.{}", slot.key(), resolved.plugin, error.path);
+                invalid(figment, &key, error.message)
+            })?;
+        }
+    }
+    Ok(())
 }
 
 /// An invalid-value error for `key`, naming the layer that supplied it.

@@ -206,4 +206,8 @@ impl skid_core::PluginParams for BagConfig {
         }
         Ok(())
     }
+
+    fn check_files(&self) -> Result<(), skid_core::ParamError> {
+        crate::check_path_exists("path", &self.path)
+    }
 }

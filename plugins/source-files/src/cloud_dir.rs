@@ -168,4 +168,8 @@ impl skid_core::PluginParams for CloudDirConfig {
         crate::check_path("path", &self.path)?;
         skid_core::registry::check::positive("period_s", self.period_s)
     }
+
+    fn check_files(&self) -> Result<(), skid_core::ParamError> {
+        crate::check_path_exists("path", &self.path)
+    }
 }

@@ -202,4 +202,8 @@ impl skid_core::PluginParams for KittiConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
         crate::check_path("path", &self.path)
     }
+
+    fn check_files(&self) -> Result<(), skid_core::ParamError> {
+        crate::check_path_exists("path", &self.path)
+    }
 }

@@ -55,6 +55,16 @@ pub(crate) fn check_path(key: &str, path: &std::path::Path) -> Result<(), skid_c
     Ok(())
 }
 
+/// Checks that the configured path under `key` exists, here or under the data folder (what
+/// `skid config check` asks of every source that reads files).
+pub(crate) fn check_path_exists(key: &str, path: &std::path::Path) -> Result<(), skid_core::ParamError> {
+    match resolve_path(path) {
+        Ok(_) => Ok(()),
+        Err(PluginError::InvalidInput(message)) => Err(skid_core::ParamError::at(key, message)),
+        Err(other) => Err(skid_core::ParamError::at(key, other.to_string())),
+    }
+}
+
 /// Resolves a configured path: as given when it exists, else under the data folder; when neither
 /// exists, an error that names both places and the variable that moves the data folder.
 pub(crate) fn resolve_path(path: &std::path::Path) -> Result<std::path::PathBuf, PluginError> {

@@ -240,4 +240,9 @@ impl skid_core::PluginParams for ZenohConfig {
         self.validate_params()
             .map_err(skid_core::ParamError::from_plugin_error)
     }
+
+    fn check_files(&self) -> Result<(), skid_core::ParamError> {
+        self.validate_files()
+            .map_err(skid_core::ParamError::from_plugin_error)
+    }
 }

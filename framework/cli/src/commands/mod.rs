@@ -307,7 +307,12 @@ pub fn config_check(
 ) -> Result<()> {
     let mut sources = sources(profile, layers);
     sources.overlays.insert(0, file.to_owned());
-    load(&sources, registry)?;
-    println!("{}: ok", file.display());
+    let config = sources.load_and_check_files(registry)?;
+    let transport = &config.slot(skid_core::Slot::Transport).plugin;
+    println!(
+        "{}: ok (every value is in range and the files it names exist here; the `{transport}` transport's \
+         endpoints and peers are only tried when it opens, at `skid run`)",
+        file.display()
+    );
     Ok(())
 }

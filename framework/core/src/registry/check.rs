@@ -17,6 +17,13 @@ pub trait PluginParams: DeserializeOwned + Serialize + Default + schemars::JsonS
     /// Refuses values outside their valid range. The error's `path` is the key relative to the
     /// plugin's table (left empty, it is taken from the first key the message names).
     fn check(&self) -> Result<(), ParamError>;
+
+    /// Checks that the files and folders the parameters name exist, which only the machine that runs
+    /// the plugin can judge. `skid config check` calls it; loading a configuration does not, so a
+    /// robot's configuration can be shown and checked for values on another machine.
+    fn check_files(&self) -> Result<(), ParamError> {
+        Ok(())
+    }
 }
 
 impl ParamError {

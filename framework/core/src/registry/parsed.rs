@@ -6,7 +6,10 @@ use std::any::Any;
 use std::fmt;
 use std::sync::Arc;
 
-use super::Params;
+use super::{ParamError, Params};
+
+/// Checks that the files a plugin's parameters name exist (see `PluginParams::check_files`).
+pub(crate) type FilesCheck = Arc<dyn Fn() -> Result<(), ParamError> + Send + Sync>;
 
 /// Parameters parsed and checked for one plugin, ready to build any number of instances.
 #[derive(Clone)]
@@ -14,15 +17,28 @@ pub struct ParsedParams {
     plugin: String,
     params: Params,
     value: Arc<dyn Any + Send + Sync>,
+    files: Option<FilesCheck>,
 }
 
 impl ParsedParams {
-    pub(crate) fn new(plugin: &str, params: Params, value: Arc<dyn Any + Send + Sync>) -> Self {
+    pub(crate) fn new(
+        plugin: &str,
+        params: Params,
+        value: Arc<dyn Any + Send + Sync>,
+        files: Option<FilesCheck>,
+    ) -> Self {
         Self {
             plugin: plugin.to_owned(),
             params,
             value,
+            files,
         }
+    }
+
+    /// Checks that the files and folders the parameters name exist on this machine; the error's `path`
+    /// is the key. Plugins that name no file (and dynamic plugins, which check in `create`) pass.
+    pub fn check_files(&self) -> Result<(), ParamError> {
+        self.files.as_ref().map_or(Ok(()), |check| check())
     }
 
     /// The plugin these parameters were parsed for.

@@ -5,6 +5,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use super::parsed::FilesCheck;
 use super::{ParamDocs, ParamError, Params, ParsedParams, PluginContext, PluginParams, Slot, param_docs};
 use crate::PluginError;
 
@@ -63,7 +64,12 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
                 }
                 error.locate_in(&named)
             })?;
-            Ok(ParsedParams::new(&plugin, params.clone(), Arc::new(config)))
+            let config = Arc::new(config);
+            let files: FilesCheck = {
+                let config = Arc::clone(&config);
+                Arc::new(move || config.check_files())
+            };
+            Ok(ParsedParams::new(&plugin, params.clone(), config, Some(files)))
         };
         let parse = Arc::new(parse);
         let build = {
@@ -112,7 +118,7 @@ impl<T: ?Sized + 'static> PluginEntry<T> {
         let plugin = name.to_owned();
         let parse = move |params: &Params| {
             validate(params)?;
-            Ok(ParsedParams::new(&plugin, params.clone(), Arc::new(())))
+            Ok(ParsedParams::new(&plugin, params.clone(), Arc::new(()), None))
         };
         let construct = Arc::new(construct);
         let build = {
