@@ -481,7 +481,8 @@ typedef struct SKID_ALIGNED(16) SkidPoint {
 
 /**
  * A borrowed point cloud: `count` points at `points`, valid for the duration of one call (or, from
- * `prepared_points`, for the prepared cloud's life).
+ * `prepared_points`, for the prepared cloud's life). The host does not filter the points it passes: a
+ * keyframe's cloud is what the odometry kept, so a plugin must tolerate (skip) non-finite coordinates.
  */
 typedef struct SkidAbiCloud {
   const struct SkidPoint *points;
@@ -641,7 +642,9 @@ typedef struct SkidAbiScan {
    */
   uint64_t stamp_nanos;
   /**
-   * Points in the sensor frame.
+   * Points in the sensor frame. They may hold non-finite coordinates (NaN, infinity): the host passes
+   * a source's points on as they are (the built-in sources drop them, a sensor or a plugin source may
+   * not), so an odometry must skip them.
    */
   const struct SkidRawPoint *points;
   size_t point_count;

@@ -17,7 +17,9 @@ pub struct AbiScan {
     pub sequence: u32,
     /// Start of the sweep in nanoseconds; point time offsets are relative to it.
     pub stamp_nanos: u64,
-    /// Points in the sensor frame.
+    /// Points in the sensor frame. They may hold non-finite coordinates (NaN, infinity): the host passes
+    /// a source's points on as they are (the built-in sources drop them, a sensor or a plugin source may
+    /// not), so an odometry must skip them.
     pub points: *const RawPoint,
     pub point_count: usize,
     /// IMU samples between the previous scan's stamp and this one's (none without an IMU).

@@ -13,7 +13,8 @@ use skid_msgs::Point;
 use super::{CreateFn, DestroyFn, ErrorBuf, Handle, Status};
 
 /// A borrowed point cloud: `count` points at `points`, valid for the duration of one call (or, from
-/// `prepared_points`, for the prepared cloud's life).
+/// `prepared_points`, for the prepared cloud's life). The host does not filter the points it passes: a
+/// keyframe's cloud is what the odometry kept, so a plugin must tolerate (skip) non-finite coordinates.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct AbiCloud {

@@ -230,6 +230,14 @@ fn check(path: &Path, library: &libloading::Library) -> Result<(String, String, 
             symbol: ENTRY_SYMBOL,
             source,
         })?;
+    // Calling a data object as a function crashes the host; the header asks for a function, and a
+    // library that exports the name as data is refused here, while its bytes are still only read.
+    if crate::host::code_address::is_executable(entry as usize) == Some(false) {
+        return Err(malformed(format!(
+            "the entry symbol `{ENTRY_SYMBOL}` is data, not a function: define it as \
+             `SKID_EXPORT const SkidLibraryDecl *{ENTRY_SYMBOL}(void) {{ … }}`"
+        )));
+    }
     // SAFETY: the entry function takes no arguments and returns a pointer to static data.
     let decl = unsafe { entry() };
     if decl.is_null() {

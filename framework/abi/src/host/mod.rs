@@ -7,6 +7,7 @@
 
 mod backend;
 mod call;
+mod code_address;
 mod descriptor;
 mod index;
 mod instance;

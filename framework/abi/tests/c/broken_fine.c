@@ -9,8 +9,9 @@
  *                                  instances run together read each other's guess.
  * A second plugin, `overcounting_liar`, has prepared clouds that claim a point more than they were given.
  * Compiled with -DSKID_FIXTURE_NULL_ENTRY, the function table has a null `refine`, and with
- * -DSKID_FIXTURE_WRONG_LAYOUT the declaration carries another wire-layout fingerprint: either library
- * must be refused at load time. -DSKID_FIXTURE_SERIAL declares `liar` serial (the host must then keep
+ * -DSKID_FIXTURE_WRONG_LAYOUT the declaration carries another wire-layout fingerprint, and with
+ * -DSKID_FIXTURE_ENTRY_AS_DATA the entry symbol is a data object: each library must be refused at load
+ * time. -DSKID_FIXTURE_SERIAL declares `liar` serial (the host must then keep
  * its racy calls apart) and -DSKID_FIXTURE_PINNED declares it pinned to its creating thread (refused). */
 
 #define _POSIX_C_SOURCE 200809L
@@ -164,6 +165,11 @@ static const SkidFineVTable OVERCOUNTING_TABLE = {create, prepare, prepared_poin
 static SkidPluginDecl PLUGINS[2];
 static SkidLibraryDecl LIBRARY;
 
+#ifdef SKID_FIXTURE_ENTRY_AS_DATA
+/* The mistake the header warns against: the entry exported as a data object pointing at the declaration
+ * (compiled with -DSKID_PLUGIN_ENTRY_DECLARED, so the header's function declaration is left out). */
+__attribute__((visibility("default"))) const SkidLibraryDecl *const skid_plugin_entry = &LIBRARY;
+#else
 SKID_EXPORT const SkidLibraryDecl *skid_plugin_entry(void) {
     PLUGINS[0].slot_kind = SkidSlotKind_FINE;
 #if defined(SKID_FIXTURE_SERIAL)
@@ -193,3 +199,4 @@ SKID_EXPORT const SkidLibraryDecl *skid_plugin_entry(void) {
     LIBRARY.plugins = PLUGINS;
     return &LIBRARY;
 }
+#endif

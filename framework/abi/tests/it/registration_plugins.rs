@@ -281,6 +281,27 @@ fn a_library_with_a_null_table_entry_is_refused_naming_the_plugin() {
 }
 
 #[test]
+fn an_entry_exported_as_data_is_refused_instead_of_called() {
+    // The fixture's other functions go unused in this build, which the warnings flags would refuse.
+    let path = compile_fixture(
+        "skid_fixture_entry_as_data",
+        &[
+            "-DSKID_FIXTURE_ENTRY_AS_DATA",
+            "-DSKID_PLUGIN_ENTRY_DECLARED",
+            "-Wno-error",
+        ],
+    );
+    let error = load_library(&path).unwrap_err();
+    assert!(matches!(error, AbiError::Malformed { .. }), "{error}");
+    let text = error.to_string();
+    assert!(
+        text.contains("`skid_plugin_entry` is data, not a function")
+            && text.contains("libskid_fixture_entry_as_data.so"),
+        "{text}"
+    );
+}
+
+#[test]
 fn a_library_built_for_another_wire_layout_is_refused_before_its_plugins_are_read() {
     let path = compile_fixture("skid_fixture_wrong_layout", &["-DSKID_FIXTURE_WRONG_LAYOUT"]);
     let error = load_library(&path).unwrap_err();
