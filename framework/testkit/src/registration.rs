@@ -71,6 +71,16 @@ pub fn fine_checks(
     ]
 }
 
+/// A pose as `t = [x, y, z] m, r = [rx, ry, rz]°` (the rotation vector), for failure messages.
+pub fn pose_text(pose: &Pose) -> String {
+    let t = pose.translation.vector;
+    let r = pose.rotation.scaled_axis() * 180.0 / std::f64::consts::PI;
+    format!(
+        "t = [{:.3}, {:.3}, {:.3}] m, r = [{:.2}, {:.2}, {:.2}]°",
+        t.x, t.y, t.z, r.x, r.y, r.z
+    )
+}
+
 /// Recovers the truth from three perturbed guesses, converged, with finite information.
 pub fn fine_recovers_perturbed_transform(
     registration: &mut dyn FineRegistration,
@@ -96,11 +106,22 @@ pub fn fine_recovers_perturbed_transform(
             .refine(&prepared_target, &prepared_source, &guess)
             .expect("refine");
         let (translation_m, rotation_deg) = pose_error(&truth, &result.target_from_source);
+        // What a plugin author needs to see when a case fails: where it started, where it ended, and
+        // what the plugin said about it.
+        let seen = format!(
+            "guess {}, result {}, truth {}, converged {}, failure {:?}, inlier ratio {:.3}",
+            pose_text(&guess),
+            pose_text(&result.target_from_source),
+            pose_text(&truth),
+            result.converged,
+            result.failure,
+            result.inlier_ratio
+        );
         assert!(
             translation_m <= expect.max_translation_error_m && rotation_deg <= expect.max_rotation_error_deg,
-            "case {case}: off by {translation_m:.3} m, {rotation_deg:.3}°"
+            "case {case}: off by {translation_m:.3} m, {rotation_deg:.3}° ({seen})"
         );
-        assert!(result.converged, "case {case}: converged ({:?})", result.failure);
+        assert!(result.converged, "case {case}: not converged ({seen})");
         assert!(
             result.failure.is_none(),
             "case {case}: a converged result carries no failure"
@@ -244,5 +265,71 @@ pub fn coarse_reports_tiny_input(registration: &mut dyn CoarseRegistration) {
                 .iter()
                 .all(|v| v.is_finite())
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use skid_core::PluginResult;
+    use skid_core::slots::{FineAlignment, PreparedCloud};
+
+    use super::*;
+
+    /// A fine registration that returns its guess, converged: what a plugin that never moves looks like.
+    struct Stays;
+
+    impl FineRegistration for Stays {
+        fn prepare(&mut self, cloud: CloudView<'_>) -> PluginResult<PreparedCloud> {
+            Ok(PreparedCloud {
+                cloud: Arc::new(Cloud::new(cloud.points().to_vec())),
+                cache: Arc::new(()),
+            })
+        }
+
+        fn refine(
+            &mut self,
+            _: &PreparedCloud,
+            _: &PreparedCloud,
+            guess: &Pose,
+        ) -> PluginResult<FineAlignment> {
+            Ok(FineAlignment {
+                target_from_source: *guess,
+                information: skid_core::Information::identity(),
+                converged: true,
+                iterations: 1,
+                inlier_count: 0,
+                inlier_ratio: 0.0,
+                error: 0.0,
+                failure: None,
+            })
+        }
+    }
+
+    #[test]
+    fn a_failed_fine_case_shows_the_guess_the_result_and_the_convergence_flag() {
+        let failed = std::panic::catch_unwind(|| {
+            fine_recovers_perturbed_transform(
+                &mut Stays,
+                0.5,
+                5.0,
+                RegistrationExpectations {
+                    max_translation_error_m: 0.05,
+                    max_rotation_error_deg: 0.5,
+                },
+            );
+        });
+        let panic = failed.expect_err("a plugin that stays at its guess passed");
+        let message = panic.downcast_ref::<String>().cloned().unwrap_or_default();
+        for word in [
+            "guess t = [",
+            "result t = [",
+            "truth t = [",
+            "converged true",
+            "failure None",
+        ] {
+            assert!(message.contains(word), "`{word}` missing from: {message}");
+        }
     }
 }
