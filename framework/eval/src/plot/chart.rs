@@ -151,9 +151,17 @@ pub fn draw_chart(path: &Path, chart: &Chart, options: &PlotOptions) -> Result<P
             };
             if let (Some(name), true) = (&series.name, text) {
                 any_named = true;
-                annotation
-                    .label(name.as_str())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(3)));
+                let style = series.style;
+                annotation.label(name.as_str()).legend(move |(x, y)| {
+                    let swatch = Swatch::of(style, color);
+                    let piece = |(from, to, style): (i32, i32, ShapeStyle)| {
+                        PathElement::new(vec![(from, 0), (to, 0)], style)
+                    };
+                    EmptyElement::at((x, y))
+                        + piece(swatch.first)
+                        + piece(swatch.second)
+                        + Circle::new((10, 0), swatch.circle.0, swatch.circle.1)
+                });
             }
             if series.style == SeriesStyle::LineWithMarkers {
                 context
@@ -184,6 +192,7 @@ pub fn draw_chart(path: &Path, chart: &Chart, options: &PlotOptions) -> Result<P
             s.name.as_ref().map(|name| LegendEntry {
                 name: name.clone(),
                 color_hex: format!("#{r:02x}{g:02x}{b:02x}"),
+                style: s.style,
             })
         })
         .collect();
@@ -197,6 +206,40 @@ pub fn draw_chart(path: &Path, chart: &Chart, options: &PlotOptions) -> Result<P
         y_label: chart.y_label.clone(),
         legend,
     })
+}
+
+/// The legend's sample of a series, drawn as the series is: a dashed line for ground truth, a dot for
+/// points and pixels, a ring for rings, a solid line otherwise. It is two line pieces and a circle, in
+/// pixels from the legend's anchor and 20 px wide like plotters' own; the parts a style has no use for
+/// are transparent, so every style is one element type.
+struct Swatch {
+    first: (i32, i32, ShapeStyle),
+    second: (i32, i32, ShapeStyle),
+    circle: (u32, ShapeStyle),
+}
+
+impl Swatch {
+    fn of(style: SeriesStyle, color: RGBColor) -> Self {
+        let line = color.stroke_width(3);
+        let none = TRANSPARENT.stroke_width(0);
+        let (first, second) = match style {
+            SeriesStyle::DashedLine => ((0, 6, line), (13, 19, line)),
+            SeriesStyle::Points | SeriesStyle::Pixels | SeriesStyle::Rings => ((0, 0, none), (0, 0, none)),
+            SeriesStyle::Line | SeriesStyle::LineWithMarkers | SeriesStyle::Segments => {
+                ((0, 10, line), (10, 20, line))
+            }
+        };
+        let circle = match style {
+            SeriesStyle::Points | SeriesStyle::Pixels | SeriesStyle::LineWithMarkers => (3, color.filled()),
+            SeriesStyle::Rings => (5, color.stroke_width(2)),
+            SeriesStyle::DashedLine | SeriesStyle::Line | SeriesStyle::Segments => (0, none),
+        };
+        Self {
+            first,
+            second,
+            circle,
+        }
+    }
 }
 
 /// A line plot of named series (e.g. success rate against yaw), axes fitted to the data unless given.

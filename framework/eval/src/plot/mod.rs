@@ -105,6 +105,8 @@ pub struct LegendEntry {
     pub name: String,
     /// `#rrggbb`.
     pub color_hex: String,
+    /// How the series is drawn; the legend's swatch is drawn the same way (dashed for ground truth).
+    pub style: SeriesStyle,
 }
 
 /// What was written.
@@ -132,7 +134,10 @@ impl PlotOutput {
         let legend: Vec<String> = self
             .legend
             .iter()
-            .map(|e| format!("{} = {}", e.name, e.color_hex))
+            .map(|e| match e.style {
+                SeriesStyle::DashedLine => format!("{} = {} (dashed)", e.name, e.color_hex),
+                _ => format!("{} = {}", e.name, e.color_hex),
+            })
             .collect();
         format!(
             "![{}]({file})\n\n*{}* — x: {}, y: {}; {}\n",

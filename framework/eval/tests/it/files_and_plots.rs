@@ -151,17 +151,21 @@ fn bad_files_are_clear_errors() {
     ));
 }
 
-/// Decodes a PNG and returns (width, height, number of non-white pixels).
-fn inspect(path: &Path) -> (u32, u32, usize) {
+/// Decodes an RGB PNG: (width, height, the pixels' bytes).
+fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
     let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
     let mut reader = decoder.read_info().unwrap();
     let mut buffer = vec![0; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buffer).unwrap();
-    let inked = buffer[..info.buffer_size()]
-        .chunks(3)
-        .filter(|p| p != &[255, 255, 255])
-        .count();
-    (info.width, info.height, inked)
+    buffer.truncate(info.buffer_size());
+    (info.width, info.height, buffer)
+}
+
+/// Decodes a PNG and returns (width, height, number of non-white pixels).
+fn inspect(path: &Path) -> (u32, u32, usize) {
+    let (width, height, pixels) = decode(path);
+    let inked = pixels.chunks(3).filter(|p| p != &[255, 255, 255]).count();
+    (width, height, inked)
 }
 
 #[test]
@@ -340,4 +344,70 @@ fn equals_evo_on_a_perturbed_kitti_sequence() {
     let report = evaluate_files(&gt, &est, &all_pairs).unwrap();
     #[rustfmt::skip]
     assert_stats("RPE 20 m all pairs", &report.rpe.rotation_deg, [3.2556590279842244, 3.029564905437185, 3.299067139832792, 1.192078936244815, 0.5184293829603537, 5.741212135067848]);
+}
+
+/// Pixels of exactly `color` per image row.
+fn colored_rows(path: &Path, color: [u8; 3]) -> Vec<Vec<u32>> {
+    let (width, _, pixels) = decode(path);
+    let width = width as usize;
+    pixels
+        .chunks(3 * width)
+        .map(|row| {
+            (0..width)
+                .filter(|&x| row[3 * x..3 * x + 3] == color)
+                .map(|x| x as u32)
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_legend_draws_ground_truth_dashed_like_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let options = PlotOptions {
+        width_px: 400,
+        height_px: 300,
+        text: true,
+    };
+    let color = [200, 30, 30];
+    // One point draws no line, so the only pixels of the colour are the legend's swatch.
+    let swatch = |style: SeriesStyle| {
+        let path = dir.path().join(format!("{style:?}.png"));
+        let out = line_plot(
+            &path,
+            "legend",
+            "x",
+            "y",
+            vec![Series {
+                name: Some("ground truth".into()),
+                points: vec![(0.0, 0.0)],
+                color: Some(color),
+                style,
+            }],
+            &options,
+        )
+        .unwrap();
+        assert_eq!(out.legend[0].style, style);
+        (out, colored_rows(&path, color))
+    };
+    let (dashed, dashed_rows) = swatch(SeriesStyle::DashedLine);
+    let (_, solid_rows) = swatch(SeriesStyle::Line);
+    assert!(
+        dashed.markdown().contains("ground truth = #c81e1e (dashed)"),
+        "{}",
+        dashed.markdown()
+    );
+    if !dashed.text_rendered {
+        return; // No font on this machine: no legend is drawn, and the caption says it.
+    }
+    let widest = |rows: &[Vec<u32>]| rows.iter().max_by_key(|row| row.len()).cloned().unwrap();
+    let (dashed_row, solid_row) = (widest(&dashed_rows), widest(&solid_rows));
+    assert!(solid_row.len() >= 15, "the solid swatch: {solid_row:?}");
+    let gaps = |row: &[u32]| row.windows(2).filter(|pair| pair[1] > pair[0] + 1).count();
+    assert_eq!(gaps(&solid_row), 0, "{solid_row:?}");
+    assert_eq!(
+        gaps(&dashed_row),
+        1,
+        "the dashed swatch has one gap: {dashed_row:?}"
+    );
 }
