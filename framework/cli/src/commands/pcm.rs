@@ -21,11 +21,26 @@ fn then_gnc(set: &skid_pcm_sets::MultiRobotGraph, result: &skid_pcm_sets::PcmSet
     Ok(report)
 }
 
+/// When PCM keeps fewer than half of many loops under the files' own information matrices, the hint
+/// that those matrices may be placeholders (many datasets write them), which `--unit-covariance` replaces.
+fn covariance_hint(accepted: usize, loops: usize, unit_covariance: bool) -> Option<String> {
+    (!unit_covariance && loops >= 10 && 2 * accepted < loops).then(|| {
+        format!(
+            "PCM kept {accepted} of {loops} loops under the files' information matrices. If most of them \
+             should be inliers, the matrices may not be the measurements' real uncertainty (datasets often \
+             write placeholders): `--unit-covariance` replaces them with identities"
+        )
+    })
+}
+
 pub fn pcm(paths: &[PathBuf], unit_covariance: bool, gnc: bool, json: bool) -> Result<()> {
     let (set, result) =
         skid_pcm_sets::verify_set(paths, unit_covariance).context("verifying the multi-robot graph")?;
     for (file, line) in &set.skipped_lines {
         tracing::warn!(file = %file.display(), line, "skipped a malformed line");
+    }
+    if let Some(hint) = covariance_hint(result.accepted.len(), result.loops.len(), unit_covariance) {
+        eprintln!("note: {hint}");
     }
     let optimised = if gnc { Some(then_gnc(&set, &result)?) } else { None };
     if json {

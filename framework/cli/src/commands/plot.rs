@@ -92,10 +92,27 @@ fn read_record(path: &Path) -> Result<RunPlotData> {
     if robots.is_empty() {
         bail!("{} holds no robot's topics (/robot<i>/path …)", path.display());
     }
+    // The run thins each robot's map once before it draws map.png; so does this, or the plot drawn
+    // again would be denser than the run's own.
+    for track in robots.values_mut() {
+        track.map_points = thinned(&track.map_points);
+    }
     Ok(RunPlotData {
         robots: robots.into_values().collect(),
         loops,
     })
+}
+
+/// `points` thinned at the run's map voxel size ([`skid_runtime::MAP_VOXEL_M`]).
+fn thinned(points: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let points: Vec<skid_core::Point> = points
+        .iter()
+        .map(|&[x, y, z]| skid_core::Point::new(x as f32, y as f32, z as f32))
+        .collect();
+    skid_geometry::voxel_downsample(&points, skid_runtime::MAP_VOXEL_M)
+        .iter()
+        .map(|p| [f64::from(p.x), f64::from(p.y), f64::from(p.z)])
+        .collect()
 }
 
 pub fn plot(run_dir: &Path) -> Result<()> {

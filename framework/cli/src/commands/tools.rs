@@ -12,7 +12,17 @@ use super::{load, sources};
 use crate::LayerArgs;
 
 /// The parameters the configuration gives plugin `name` of `slot` (its defaults when it has none).
+/// The configured parameters of plugin `name` in `slot`, chosen with the command's `--<slot> NAME` flag.
 fn params_for(registry: &Registry, layers: &LayerArgs, slot: Slot, name: &str) -> Result<skid_core::Params> {
+    let known = registry.names(slot);
+    if !known.iter().any(|known| known == name) {
+        bail!(
+            "--{} {name}: no {} plugin is called `{name}`; known: {}, or none",
+            slot.key(),
+            slot.key(),
+            known.join(", ")
+        );
+    }
     let mut layers = layers.clone();
     layers.sets.push(format!("{}.plugin={name}", slot.key()));
     let config = load(&sources(None, &layers), registry)?;

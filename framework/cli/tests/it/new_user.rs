@@ -96,6 +96,66 @@ fn config_check_refuses_an_out_of_range_value_naming_file_and_key_once() {
 }
 
 #[test]
+fn config_check_refuses_files_that_do_not_exist_naming_file_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such-sequence");
+    let file = dir.path().join("robot.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "[source]\nplugin = \"kitti\"\n[source.kitti]\npath = \"{}\"\n",
+            missing.display()
+        ),
+    )
+    .unwrap();
+    let output = skid(&["config", "check", file.to_str().unwrap()]);
+    fails_with(
+        &output,
+        &[
+            "robot.toml",
+            "source.kitti.path",
+            "no-such-sequence",
+            "does not exist",
+        ],
+    );
+    // Zenoh's mutual TLS without its files, and with a certificate file that is not there.
+    let zenoh = dir.path().join("zenoh.toml");
+    std::fs::write(&zenoh, "[transport]\nplugin = \"zenoh\"\n").unwrap();
+    let output = skid(&["config", "check", zenoh.to_str().unwrap()]);
+    fails_with(&output, &["zenoh.toml", "tls.ca_certificate", "not set"]);
+    let ca = dir.path().join("ca.pem");
+    std::fs::write(&ca, "not checked here").unwrap();
+    std::fs::write(
+        &zenoh,
+        format!(
+            "[transport]\nplugin = \"zenoh\"\n[transport.zenoh.tls]\nca_certificate = \"{}\"\n\
+             certificate = \"{}\"\nprivate_key = \"{}\"\n",
+            ca.display(),
+            dir.path().join("robot-0.pem").display(),
+            ca.display()
+        ),
+    )
+    .unwrap();
+    let output = skid(&["config", "check", zenoh.to_str().unwrap()]);
+    fails_with(
+        &output,
+        &["zenoh.toml", "tls.certificate", "robot-0.pem", "no such file"],
+    );
+    // A configuration whose files exist passes, and says what is left to the run.
+    let output = skid(&["config", "check", "configs/profiles/kitti.toml"]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("ok") && stdout.contains("when it opens"),
+        "{stdout}"
+    );
+}
+
+#[test]
 fn profiles_work_outside_a_checkout() {
     let elsewhere = tempfile::tempdir().unwrap();
     let output = skid_in(
@@ -128,6 +188,29 @@ fn a_fine_registration_that_does_not_converge_exits_non_zero_with_the_reason() {
     // Scripts still get the JSON line with the last estimate.
     let line: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(line["converged"], false);
+}
+
+#[test]
+fn an_unknown_plugin_flag_is_named_as_the_flag_with_the_known_names() {
+    let pair = data("lidar_scan_pair_fast_gicp");
+    let (target, source) = (pair.join("251370668.pcd"), pair.join("251371071.pcd"));
+    let output = skid(&[
+        "register",
+        target.to_str().unwrap(),
+        source.to_str().unwrap(),
+        "--fine",
+        "nope",
+    ]);
+    let stderr = fails_with(&output, &["--fine nope", "gicp", "icp"]);
+    assert!(!stderr.contains("--set"), "{stderr}");
+    let output = skid(&[
+        "register",
+        target.to_str().unwrap(),
+        source.to_str().unwrap(),
+        "--coarse",
+        "nope",
+    ]);
+    fails_with(&output, &["--coarse nope", "kiss_matcher", "ransac"]);
 }
 
 #[test]

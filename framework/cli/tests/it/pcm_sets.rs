@@ -90,3 +90,29 @@ fn bad_inputs_are_clear_errors() {
         "the error does not name the file: {message}"
     );
 }
+
+#[test]
+fn placeholder_covariances_that_starve_pcm_get_a_hint() {
+    // A clean set whose files' information matrices are not the measurements' uncertainty: PCM keeps
+    // 16 of its 83 loops under them and all of them with identities.
+    let set = skid_io::data_dir()
+        .join("multi_robot_pose_graphs/pcm_robust_distributed_mapper/argos_simulation/clean/example_4robots");
+    let output = pcm(&[&set], &["--json"]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let line: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(line["loops"], 83, "{line}");
+    assert_eq!(line["accepted"].as_array().unwrap().len(), 16, "{line}");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("16 of 83") && stderr.contains("--unit-covariance"),
+        "{stderr}"
+    );
+    let output = pcm(&[&set], &["--json", "--unit-covariance"]);
+    let line: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(line["accepted"].as_array().unwrap().len(), 83, "{line}");
+    assert!(!String::from_utf8_lossy(&output.stderr).contains("note:"));
+}

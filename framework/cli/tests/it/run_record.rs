@@ -174,6 +174,7 @@ fn skid_plot_draws_the_plots_again_from_the_record() {
     run(out.path(), &[]);
     let folder = out.path().join("recorded");
     let plots = ["trajectories.png", "errors.png", "map.png"];
+    let run_map_pixels = inked_pixels(&folder.join("map.png"));
     for plot in plots {
         assert!(folder.join(plot).is_file(), "the run wrote no {plot}");
         std::fs::remove_file(folder.join(plot)).unwrap();
@@ -194,6 +195,14 @@ fn skid_plot_draws_the_plots_again_from_the_record() {
         assert!(bytes.starts_with(b"\x89PNG") && bytes.len() > 5_000, "{plot}");
         assert!(listed.contains(plot), "{listed}");
     }
+    // The map drawn again is thinned as the run's own is, so it is no denser (unthinned, this run's
+    // redrawn map has 5 % more inked pixels).
+    let redrawn_map_pixels = inked_pixels(&folder.join("map.png"));
+    let ratio = redrawn_map_pixels as f64 / run_map_pixels as f64;
+    assert!(
+        (0.99..=1.01).contains(&ratio),
+        "map.png drawn again has {redrawn_map_pixels} inked pixels, the run's {run_map_pixels}"
+    );
     // A folder without a record is a clear error.
     std::fs::remove_file(folder.join("run.mcap")).unwrap();
     let output = Command::new(env!("CARGO_BIN_EXE_skid"))
@@ -212,4 +221,17 @@ fn the_record_can_be_turned_off() {
     let folder = out.path().join("recorded");
     assert!(folder.join("summary.json").is_file());
     assert!(!folder.join("run.mcap").exists());
+}
+
+/// Pixels of a PNG that are not white.
+fn inked_pixels(path: &std::path::Path) -> usize {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buffer = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buffer).unwrap();
+    let channels = info.color_type.samples();
+    buffer[..info.buffer_size()]
+        .chunks(channels)
+        .filter(|pixel| pixel.iter().take(3).any(|&value| value != 255))
+        .count()
 }
