@@ -133,7 +133,7 @@ fn ci() -> Result<()> {
 /// dependencies are built once, by rustc, instead of once more for a separate clippy pass.
 fn test_build(python: &std::path::Path) -> Result<Command> {
     let mut command = cargo();
-    command.args(["test", "--workspace", "--features", "skid/rerun"]);
+    command.args(["test", "--workspace", "--features", "skid/rerun,skid/zenoh"]);
     command.env(xtask::python::PYTHON_VAR, python);
     command.env("RUSTC_WORKSPACE_WRAPPER", clippy_driver()?);
     command.env("CLIPPY_ARGS", "-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__");
@@ -174,7 +174,7 @@ fn ci_phases(phases: &mut Phases) -> Result<()> {
     let python = phases.time("Python venv", || {
         xtask::python::ensure_python(&xtask::workspace_root())
     })?;
-    // With `skid`'s `rerun` feature (the Rerun SDK, off by default): one build whose features serve every
+    // With `skid`'s `rerun` and `zenoh` features (both off by default): one build whose features serve every
     // test, so the crates the SDK shares with the rest are not built twice.
     phases.time("build: tests and clippy", || {
         let mut build = test_build(&python)?;

@@ -219,7 +219,8 @@ enum BagCommand {
 #[derive(Subcommand, Debug)]
 enum FleetCommand {
     /// Write a test fleet's certificates for the zenoh transport's mutual TLS: a CA (`ca.pem`, `ca.key`)
-    /// and `robot-<id>.pem`/`.key` for robots 0..ROBOTS, and print the `[transport.zenoh]` lines of each.
+    /// and `robot-<id>.pem`/`.key` for robots 0..ROBOTS, and each robot's configuration `robot-<id>.toml`
+    /// (its `deploy.robot`, endpoints and certificate files; for `skid run --config FILE`), printed too.
     Certs {
         /// Number of robots.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
@@ -232,6 +233,11 @@ enum FleetCommand {
         /// Replace a CA already in the folder (the robots' certificates signed by it stop working).
         #[arg(long)]
         overwrite: bool,
+        /// The robots' addresses, one per robot in id order (e.g. `10.0.0.10,10.0.0.11`): each robot
+        /// listens on port 7447 of every interface and connects to the others. Without it every robot runs
+        /// on this machine, robot i on 127.0.0.1 port 7447 + i.
+        #[arg(long, value_delimiter = ',')]
+        hosts: Vec<String>,
     },
 }
 
@@ -482,11 +488,12 @@ fn main() -> ExitCode {
         } => commands::extra::sim_preview(&flags.args(), &out, size_px),
         Command::Bag(BagCommand::Info { path, json }) => commands::bag::info(&path, json),
         Command::Fleet(FleetCommand::Certs {
+            hosts,
             robots,
             years,
             dir,
             overwrite,
-        }) => commands::fleet::certs(robots, years, &dir, overwrite),
+        }) => commands::fleet::certs(robots, years, &dir, overwrite, &hosts),
         Command::Odometry { folder, out, layers } => {
             commands::tools::odometry(&registry, &folder, out.as_deref(), &layers)
         }

@@ -128,6 +128,33 @@ fn unknown_plugin_lists_the_known_ones() {
 }
 
 #[test]
+fn a_plugin_this_build_leaves_out_says_how_to_build_it_in() {
+    let mut registry = registry();
+    registry.note_left_out(
+        Slot::Transport,
+        "carrier_pigeon",
+        "build with the `pigeon` feature",
+    );
+    let with = |sets: &[&str]| ConfigSources {
+        sets: sets.iter().map(|set| (*set).to_owned()).collect(),
+        ..sources()
+    };
+    let error = with(&["transport.plugin=carrier_pigeon"])
+        .load(&registry)
+        .unwrap_err();
+    assert_invalid(
+        error,
+        "--set transport.plugin=carrier_pigeon",
+        "transport.plugin",
+        &["`carrier_pigeon` is not in this build", "the `pigeon` feature"],
+    );
+    // Its parameters, kept in a file shared with builds that have it, do not stop this one.
+    with(&["transport.carrier_pigeon.birds=3"])
+        .load(&registry)
+        .unwrap();
+}
+
+#[test]
 fn unknown_section_lists_the_expected_sections() {
     let error = load_with_overlay("unknown_section.toml").unwrap_err();
     assert_invalid(error, "unknown_section.toml", "runn", &["run", "descriptor"]);

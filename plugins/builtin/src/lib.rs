@@ -43,9 +43,24 @@ pub fn register_all(registry: &mut Registry) -> Result<(), PluginError> {
     skid_transport_loopback::register(registry)?;
     #[cfg(feature = "transport-zenoh")]
     skid_transport_zenoh::register(registry)?;
-    // Keep the binding used when every feature is off.
-    let _ = &registry;
+    note_left_out(registry);
     Ok(())
+}
+
+/// How a binary without the network plugins gets them: the `skid` command line builds them in with its
+/// `zenoh` feature.
+const WITH_ZENOH: &str =
+    "build SKiD with its `zenoh` feature (`cargo build --release -p skid --features zenoh`)";
+
+/// Notes the plugins that exist but that this build's features leave out, so selecting one says how
+/// to build it in.
+fn note_left_out(registry: &mut Registry) {
+    #[cfg(not(feature = "transport-zenoh"))]
+    registry.note_left_out(skid_core::Slot::Transport, "zenoh", WITH_ZENOH);
+    #[cfg(not(feature = "source-ros2"))]
+    registry.note_left_out(skid_core::Slot::Source, "ros2", WITH_ZENOH);
+    // Keep the names used when every feature is on.
+    let _ = (&registry, WITH_ZENOH);
 }
 
 /// A registry holding every enabled built-in plugin.

@@ -1,6 +1,6 @@
 //! What watches a run while it happens, attached to the fleet before it starts: the live ROS 2 output
-//! (`output.ros2`, always built) and the Rerun view (`--rerun`, `--rerun-save`, built with the `rerun`
-//! feature). What `attach` returns keeps their sessions open until the run's end.
+//! (`output.ros2`, built with the `zenoh` feature) and the Rerun view (`--rerun`, `--rerun-save`, built
+//! with the `rerun` feature). What `attach` returns keeps their sessions open until the run's end.
 
 use std::path::PathBuf;
 
@@ -17,6 +17,7 @@ pub struct Viewers {
 
 /// Sessions to keep alive for the run.
 pub struct Attached {
+    #[cfg(feature = "zenoh")]
     _ros2: Option<skid_ros2_live::SharedSession>,
     #[cfg(feature = "rerun")]
     _rerun: Option<rerun_stream::Stream>,
@@ -35,6 +36,7 @@ impl Viewers {
             );
         }
         Ok(Attached {
+            #[cfg(feature = "zenoh")]
             _ros2: ros2,
             #[cfg(feature = "rerun")]
             _rerun: rerun,
@@ -42,7 +44,20 @@ impl Viewers {
     }
 }
 
+/// Without the `zenoh` feature, `output.ros2` is refused with how to build it in.
+#[cfg(not(feature = "zenoh"))]
+fn live_ros2(fleet: &mut skid_runtime::Fleet) -> Result<()> {
+    if fleet.config.output.ros2 {
+        anyhow::bail!(
+            "output.ros2 = true: this skid was built without zenoh, which the live ROS 2 output speaks; \
+             build it with `cargo build --release -p skid --features zenoh`"
+        );
+    }
+    Ok(())
+}
+
 /// With `output.ros2`, publishes every robot of `fleet` live as ROS 2 topics over zenoh.
+#[cfg(feature = "zenoh")]
 fn live_ros2(fleet: &mut skid_runtime::Fleet) -> Result<Option<skid_ros2_live::SharedSession>> {
     let output = &fleet.config.output;
     if !output.ros2 {

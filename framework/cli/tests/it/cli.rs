@@ -257,3 +257,82 @@ fn fleet_certs_refuse_to_replace_a_ca_unless_told() {
     assert!(certs(&["--overwrite"]).status.success());
     assert_ne!(std::fs::read(dir.path().join("ca.pem")).unwrap(), first_ca);
 }
+
+#[test]
+fn fleet_certs_write_a_working_configuration_per_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .args(["fleet", "certs", "--robots", "3"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let printed = String::from_utf8_lossy(&output.stdout);
+    for robot in 0..3 {
+        let file = dir.path().join(format!("robot-{robot}.toml"));
+        let config = std::fs::read_to_string(&file).unwrap();
+        assert!(
+            printed.contains(&config),
+            "robot {robot}'s configuration is not printed:\n{printed}"
+        );
+        assert!(config.contains(&format!("robot = {robot}")), "{config}");
+        assert!(
+            config.contains(&format!("tls/127.0.0.1:{}", 7447 + robot)),
+            "{config}"
+        );
+        // The file is a configuration SKiD accepts, certificate files included, from another folder.
+        let checked = Command::new(env!("CARGO_BIN_EXE_skid"))
+            .current_dir(std::env::temp_dir())
+            .args(["config", "check"])
+            .arg(&file)
+            .output()
+            .unwrap();
+        assert!(
+            checked.status.success(),
+            "{}",
+            String::from_utf8_lossy(&checked.stderr)
+        );
+        let effective = Command::new(env!("CARGO_BIN_EXE_skid"))
+            .args(["config", "show", "--config"])
+            .arg(&file)
+            .output()
+            .unwrap();
+        let effective = String::from_utf8_lossy(&effective.stdout);
+        assert!(effective.contains("plugin = \"zenoh\""), "{effective}");
+    }
+    // Robots on their own machines listen on every interface and connect to the others' addresses.
+    let remote = tempfile::tempdir().unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .args([
+            "fleet",
+            "certs",
+            "--robots",
+            "2",
+            "--hosts",
+            "10.0.0.10,10.0.0.11",
+        ])
+        .arg(remote.path())
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let config = std::fs::read_to_string(remote.path().join("robot-0.toml")).unwrap();
+    assert!(
+        config.contains("tls/0.0.0.0:7447") && config.contains("tls/10.0.0.11:7447"),
+        "{config}"
+    );
+    let output = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .args(["fleet", "certs", "--robots", "3", "--hosts", "10.0.0.10"])
+        .arg(tempfile::tempdir().unwrap().path())
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    assert!(String::from_utf8_lossy(&output.stderr).contains("--hosts names 1"));
+}

@@ -80,6 +80,9 @@ pub struct Registry {
     pub verifier: SlotTable<dyn Verifier>,
     pub backend: SlotTable<dyn Backend>,
     pub transport: SlotTable<dyn Transport>,
+    /// Plugins this build leaves out (a cargo feature off), with how to build them in, so a
+    /// configuration that selects one is told why it is missing rather than that it does not exist.
+    left_out: Vec<(Slot, String, String)>,
 }
 
 impl Default for Registry {
@@ -100,7 +103,23 @@ impl Registry {
             verifier: SlotTable::new(Slot::Verifier),
             backend: SlotTable::new(Slot::Backend),
             transport: SlotTable::new(Slot::Transport),
+            left_out: Vec::new(),
         }
+    }
+
+    /// Notes that plugin `name` of `slot` exists but is not built into this binary; `how_to_build` says
+    /// how to get it (for example the cargo feature to turn on).
+    pub fn note_left_out(&mut self, slot: Slot, name: &str, how_to_build: &str) {
+        self.left_out
+            .push((slot, name.to_owned(), how_to_build.to_owned()));
+    }
+
+    /// How to build plugin `name` of `slot` in, when this build left it out.
+    pub fn left_out(&self, slot: Slot, name: &str) -> Option<&str> {
+        self.left_out
+            .iter()
+            .find(|(s, n, _)| *s == slot && n == name)
+            .map(|(_, _, how)| how.as_str())
     }
 
     /// The names registered for a slot, sorted.
