@@ -36,6 +36,7 @@ mod scan_step;
 
 use backend_book::BackendBook;
 use frame_book::FrameBook;
+pub use frame_book::JoinedFrame;
 use loop_book::LoopBook;
 pub use loop_book::{LoopStanding, LoopStats, StandingLoop};
 use own_track::OwnTrack;
@@ -217,7 +218,6 @@ impl RobotHost {
         &mut self.peer_faults
     }
 
-    /// The loops in this robot's graph (its own accepted ones and those its peers accepted with it).
     /// The robots this robot has merged with (it holds accepted loops with them), each with the pose of
     /// its first keyframe in the frame of this robot's first keyframe and the loops behind it, as of the
     /// last refresh (each keyframe and each loop decision).
@@ -225,6 +225,13 @@ impl RobotHost {
         self.frames.own()
     }
 
+    /// Every robot this robot can place in its frame: those it merged with, and those joined through
+    /// the frames its merged peers reported (see [`JoinedFrame`]).
+    pub fn joined_frames(&self) -> BTreeMap<RobotId, JoinedFrame> {
+        self.frames.joined(self.robot)
+    }
+
+    /// The loops in this robot's graph (its own accepted ones and those its peers accepted with it).
     pub fn accepted_loops(&self) -> &BTreeMap<LoopId, LoopClosure> {
         self.loops.accepted()
     }

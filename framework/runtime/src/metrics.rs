@@ -5,7 +5,10 @@
 //! The α/β metric (SKiD-SLAM paper, "Multi-Robot Alignment Error") needs `T^α_β`, the estimate of β's
 //! map frame in α's: robot α's distributed back-end holds the β keyframes its inter-robot loops touch,
 //! so `T^α_β` is the SE(3) Umeyama fit of those poses in α's graph onto the same keyframes' poses in β's
-//! own estimate. A robot α never closed a loop with has no `T^α_β`; its entry says so.
+//! own estimate. A robot α never closed a loop with is placed through the robots that did, when α has
+//! joined it through them (their reported frames composed, see `RobotHost::joined_frames`): `T^α_β` is
+//! then α's first keyframe composed with the joined frame and β's own first keyframe, and the entry names
+//! the robot it came through. A robot α cannot place at all has no `T^α_β`; its entry says so.
 
 use std::collections::BTreeMap;
 
@@ -41,8 +44,11 @@ pub struct TrajectoryMetrics {
 #[derive(Clone, Debug, Serialize)]
 pub struct AlignmentMetrics {
     pub alpha: u32,
-    /// β keyframes in α's graph used to estimate `T^α_β`.
+    /// β keyframes in α's graph used to estimate `T^α_β` (0 when joined through another robot).
     pub shared_keyframes: usize,
+    /// The robot through which α placed β, when α holds no loop with β.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joined_via: Option<u32>,
     /// `T_β,APE = (T^GT_β)⁻¹ · T^GT_α · T^α_β`.
     pub beta_alignment_error: TransformError,
     /// The translation of `T_β,APE` as a percentage of β's path length.
@@ -170,10 +176,27 @@ pub fn alpha_frames(robots: &[RobotHost]) -> Vec<Result<(Pose, usize), String>> 
             if robot.robot() == alpha.robot() {
                 Ok((Pose::identity(), robot.keyframes().len()))
             } else {
-                alpha_from_beta(alpha, robot)
+                alpha_from_beta(alpha, robot).or_else(|direct| {
+                    alpha_from_beta_through_others(alpha, robot)
+                        .map(|frame| (frame, 0))
+                        .ok_or(direct)
+                })
             }
         })
         .collect()
+}
+
+/// `T^α_β` when α placed β only through other robots' reported frames: α's first keyframe in its own
+/// graph, then the joined frame, then β's first keyframe in β's own estimate, inverted.
+fn alpha_from_beta_through_others(alpha: &RobotHost, beta: &RobotHost) -> Option<Pose> {
+    let joined = alpha.joined_frames().get(&beta.robot()).copied()?;
+    joined.via?;
+    let alpha_first = alpha.backend_graph()?.pose(KeyframeId {
+        robot: alpha.robot(),
+        index: 0,
+    })?;
+    let beta_first = beta.keyframe_pose(0)?;
+    Some(alpha_first * joined.own_first_from_robot_first * beta_first.inverse())
 }
 
 fn alignment_metrics(
@@ -196,9 +219,19 @@ fn alignment_metrics(
     )
     .map_err(|e| e.to_string())?;
     let beta_path_m = path_length_m(&gt_beta).max(f64::MIN_POSITIVE);
+    let joined_via = (shared_keyframes == 0)
+        .then(|| {
+            alpha
+                .joined_frames()
+                .get(&beta.robot())
+                .and_then(|joined| joined.via)
+        })
+        .flatten()
+        .map(|via| via.0);
     Ok(AlignmentMetrics {
         alpha: alpha.robot().0,
         shared_keyframes,
+        joined_via,
         beta_alignment_percent_of_path: 100.0 * result.beta_alignment_error.translation_m / beta_path_m,
         beta_alignment_error: result.beta_alignment_error,
         beta_in_alpha_ate_m: result.beta_in_alpha.translation_m,

@@ -35,8 +35,9 @@ pub struct RobotSummary {
     pub transport_refusals: BTreeMap<String, u64>,
     /// Well-formed peer messages the robot refused, by class (see `peer_faults.rs`).
     pub peer_faults: BTreeMap<String, u64>,
-    /// The robots this robot has merged with at the end (it holds accepted loops with them), each with
-    /// where that robot's first keyframe sits in the frame of this robot's first keyframe.
+    /// The robots this robot has placed in its frame at the end: those it merged with (it holds accepted
+    /// loops with them) and those joined through them, each with where that robot's first keyframe sits
+    /// in the frame of this robot's first keyframe.
     pub merged_with: Vec<MergedFrame>,
 }
 
@@ -44,8 +45,11 @@ pub struct RobotSummary {
 #[derive(Clone, Debug, Serialize)]
 pub struct MergedFrame {
     pub robot: u32,
-    /// Accepted loops behind the frame.
+    /// This robot's accepted loops with it (0 when joined through another robot).
     pub loops: u32,
+    /// The robot whose reported frame placed it, when this robot holds no loop with it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub via: Option<u32>,
     /// Translation in metres and rotation as a unit quaternion (x, y, z, w).
     pub translation_m: [f64; 3],
     pub rotation_xyzw: [f64; 4],
@@ -127,13 +131,17 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
             .unwrap_or_default(),
         peer_faults: host.peer_faults().snapshot(),
         merged_with: host
-            .merged_frames()
+            .joined_frames()
             .iter()
-            .map(|(robot, (frame, loops))| MergedFrame {
-                robot: robot.0,
-                loops: *loops,
-                translation_m: frame.translation.vector.into(),
-                rotation_xyzw: frame.rotation.coords.into(),
+            .map(|(robot, joined)| {
+                let frame = &joined.own_first_from_robot_first;
+                MergedFrame {
+                    robot: robot.0,
+                    loops: joined.loops,
+                    via: joined.via.map(|via| via.0),
+                    translation_m: frame.translation.vector.into(),
+                    rotation_xyzw: frame.rotation.coords.into(),
+                }
             })
             .collect(),
     }

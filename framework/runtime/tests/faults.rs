@@ -3,7 +3,8 @@
 //! run in lockstep over the `loopback` transport while its link loses 30% of the messages, duplicates
 //! and reorders them, a peer sends malformed and oversized datagrams, or a robot's links are cut for a
 //! while. Every robot keeps running to the end, nothing already in a graph is lost, and inter-robot
-//! loops are still found (after the link returns, for the cut).
+//! loops are still found (after the link returns, for the cut). Two robots that never hear each other
+//! still share a frame, through a third robot that hears both.
 //!
 //! The fleet is kept small so each test runs in seconds: VLP-16 scans, ground-truth odometry, no coarse
 //! registration (SOLiD's yaw hint seeds GICP), an aerial route in the urban world on which robots 0 and 2
@@ -346,5 +347,74 @@ fn a_robot_cut_off_for_a_while_finds_loops_once_its_link_returns() {
             .flat_map(|(a, b)| [a, b])
             .any(|k| k.robot == RobotId(2) && k.index > latest_before),
         "{with_link:?}"
+    );
+}
+
+/// The pose of a robot's first keyframe in the world, from the ground truth of its scan.
+fn first_keyframe_truth(fleet: &Fleet, robot: usize) -> skid_core::Pose {
+    fleet.robots[robot]
+        .scans()
+        .iter()
+        .find(|scan| scan.keyframe == Some(0))
+        .and_then(|scan| scan.ground_truth)
+        .expect("the simulator gives ground truth")
+}
+
+#[test]
+fn a_robot_with_no_link_to_robot_0_joins_its_frame_through_a_third_robot() {
+    // Robots 0 and 2 fly together from the start and robot 1 meets both later on. Robots 0 and 1 never
+    // hear each other (out of radio range, say), so they close no loop together; robot 2 hears both.
+    let scans = 120;
+    let mut fleet = fleet(&[&format!("run.max_scans={scans}")]);
+    let hub = loopback_hub(&fleet).clone();
+    hub.cut_link(RobotId(0), RobotId(1));
+    let summary = fleet.run_lockstep(|_| {}).unwrap();
+    assert!(
+        summary.robots.iter().all(|robot| robot.scans == scans),
+        "a robot stopped early"
+    );
+    assert_eq!(
+        involving(&inter_loops(&fleet, 0), 1),
+        0,
+        "robots 0 and 1 closed a loop"
+    );
+    assert!(
+        involving(&inter_loops(&fleet, 2), 0) > 0 && involving(&inter_loops(&fleet, 2), 1) > 0,
+        "robot 2 did not merge with both: {:?}",
+        inter_loops(&fleet, 2)
+    );
+    let joined = fleet.robots[0].joined_frames();
+    let robot_1 = joined
+        .get(&RobotId(1))
+        .unwrap_or_else(|| panic!("robot 0 did not join robot 1: {joined:?}"));
+    assert_eq!((robot_1.via, robot_1.loops), (Some(RobotId(2)), 0));
+    // The joined frame is where robot 1 really is, as the ground truth of the first keyframes says.
+    let truth = first_keyframe_truth(&fleet, 0).inverse() * first_keyframe_truth(&fleet, 1);
+    let error = truth.inverse() * robot_1.own_first_from_robot_first;
+    assert!(
+        error.translation.vector.norm() < 1.0 && error.rotation.angle().to_degrees() < 2.0,
+        "robot 1 joined {:.2} m and {:.2}° off",
+        error.translation.vector.norm(),
+        error.rotation.angle().to_degrees()
+    );
+    // The summary says through whom, and the α/β metric places robot 1 through robot 2.
+    let merged: Vec<(u32, Option<u32>)> = summary.robots[0]
+        .merged_with
+        .iter()
+        .map(|frame| (frame.robot, frame.via))
+        .collect();
+    assert!(merged.contains(&(1, Some(2))), "{merged:?}");
+    let metrics = skid_runtime::RunMetrics::of("joined", &fleet.robots);
+    let alignment = metrics.robots[1].alignment.as_ref().unwrap_or_else(|| {
+        panic!(
+            "no α/β for robot 1: {:?}",
+            metrics.robots[1].alignment_unavailable
+        )
+    });
+    assert_eq!(alignment.joined_via, Some(2));
+    assert!(
+        alignment.beta_alignment_error.translation_m < 1.0,
+        "{:?}",
+        alignment.beta_alignment_error
     );
 }

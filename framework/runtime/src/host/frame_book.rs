@@ -4,8 +4,14 @@
 //! direct frame between this robot and a peer can then be checked against the cycle through a third
 //! robot that has merged with both ([`FrameBook::through_others`]): aliasing that fools one pair of
 //! robots rarely fools two pairs into the same wrong frame.
+//!
+//! A robot also joins robots it never closed a loop with through the robots that did
+//! ([`FrameBook::joined`]), neighbour by neighbour, as DPGO lets an agent enter the global frame through
+//! any aligned neighbour (Tian et al., "Distributed Certifiably Correct Pose-Graph Optimization", 2021).
+//! A join is only as good as the chain behind it: chains through different robots that disagree leave
+//! the robot out, and when a link of the chain withdraws its merge, the join goes with it.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use skid_core::{Pose, RobotId};
 
@@ -13,6 +19,22 @@ use skid_core::{Pose, RobotId};
 const RESEND_M: f64 = 0.25;
 /// A frame that turned less than this since it was last sent is not sent again.
 const RESEND_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
+
+/// Chains through different robots that place a robot further apart than this (the verifier's default
+/// cycle tolerance) leave it out: at least one of them holds a false merge.
+const JOIN_DISAGREEMENT_M: f64 = 5.0;
+const JOIN_DISAGREEMENT_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
+
+/// Where a robot sits in this robot's frame, and how this robot knows it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JoinedFrame {
+    /// The pose of that robot's first keyframe in the frame of this robot's first keyframe.
+    pub own_first_from_robot_first: Pose,
+    /// This robot's accepted loops with it (0 when joined through another robot).
+    pub loops: u32,
+    /// The robot whose report placed it, `None` when this robot holds loops with it.
+    pub via: Option<RobotId>,
+}
 
 /// This robot's frames of its merged peers, and its peers' reports of theirs.
 #[derive(Debug, Default)]
@@ -66,6 +88,60 @@ impl FrameBook {
     /// Keeps `from`'s report, replacing its previous one.
     pub(crate) fn record_report(&mut self, from: RobotId, frames: BTreeMap<RobotId, Pose>) {
         self.reported.insert(from, frames);
+    }
+
+    /// Every robot this robot (`me`) can place: those it merged with directly, then, round by round, the
+    /// robots that the robots already placed report, composed along the chain. A robot that two chains
+    /// of one round place apart by more than the disagreement bound is left out.
+    pub(crate) fn joined(&self, me: RobotId) -> BTreeMap<RobotId, JoinedFrame> {
+        let mut joined: BTreeMap<RobotId, JoinedFrame> = self
+            .own
+            .iter()
+            .map(|(robot, (pose, loops))| {
+                let frame = JoinedFrame {
+                    own_first_from_robot_first: *pose,
+                    loops: *loops,
+                    via: None,
+                };
+                (*robot, frame)
+            })
+            .collect();
+        let mut disputed: BTreeSet<RobotId> = BTreeSet::new();
+        loop {
+            let mut chains: BTreeMap<RobotId, Vec<(RobotId, Pose)>> = BTreeMap::new();
+            for (via, report) in &self.reported {
+                let Some(through) = joined.get(via) else {
+                    continue;
+                };
+                for (robot, via_first_from_robot_first) in report {
+                    if *robot != me && !joined.contains_key(robot) && !disputed.contains(robot) {
+                        let pose = through.own_first_from_robot_first * via_first_from_robot_first;
+                        chains.entry(*robot).or_default().push((*via, pose));
+                    }
+                }
+            }
+            if chains.is_empty() {
+                return joined;
+            }
+            for (robot, found) in chains {
+                let (via, pose) = found[0];
+                let agree = found.iter().all(|(_, other)| {
+                    let apart = pose.inverse() * other;
+                    apart.translation.vector.norm() <= JOIN_DISAGREEMENT_M
+                        && apart.rotation.angle() <= JOIN_DISAGREEMENT_RAD
+                });
+                if agree {
+                    let frame = JoinedFrame {
+                        own_first_from_robot_first: pose,
+                        loops: 0,
+                        via: Some(via),
+                    };
+                    joined.insert(robot, frame);
+                } else {
+                    disputed.insert(robot);
+                }
+            }
+        }
     }
 
     /// Where `b`'s first keyframe sits in `a`'s first keyframe's frame, through each third robot that
@@ -140,6 +216,48 @@ mod tests {
         assert!(
             book.through_others(r0, r1, r2).is_empty(),
             "only cycles through this robot"
+        );
+    }
+
+    #[test]
+    fn robots_join_through_chains_that_agree_and_leave_with_them() {
+        let (r0, r1, r2, r3) = (RobotId(0), RobotId(1), RobotId(2), RobotId(3));
+        let mut book = FrameBook::default();
+        // Robot 0 merged with robot 1 only; robot 1 places robot 2, robot 2 places robot 3.
+        book.set_own(BTreeMap::from([(r1, (pose(10.0, 90.0), 6))]));
+        book.record_report(
+            r1,
+            BTreeMap::from([(r0, pose(-10.0, -90.0)), (r2, pose(5.0, 0.0))]),
+        );
+        book.record_report(r2, BTreeMap::from([(r3, pose(1.0, 0.0))]));
+        let joined = book.joined(r0);
+        assert_eq!(joined[&r1].via, None);
+        assert_eq!(joined[&r1].loops, 6);
+        assert_eq!(joined[&r2].via, Some(r1));
+        assert!(
+            (joined[&r2].own_first_from_robot_first.translation.vector - Vector3::new(10.0, 5.0, 0.0)).norm()
+                < 1e-9
+        );
+        assert_eq!(joined[&r3].via, Some(r2), "chains grow neighbour by neighbour");
+        assert!(!joined.contains_key(&r0), "a robot does not join itself");
+        // A second chain to robot 2 (through robot 3, now merged directly) that disagrees by 20 m leaves
+        // robot 2 out; one that agrees keeps it.
+        book.set_own(BTreeMap::from([
+            (r1, (pose(10.0, 90.0), 6)),
+            (r3, (pose(0.0, 0.0), 4)),
+        ]));
+        book.record_report(r3, BTreeMap::from([(r2, pose(20.0, 0.0))]));
+        assert!(!book.joined(r0).contains_key(&r2), "disagreeing chains");
+        let half_a_metre_off = Pose::new(Vector3::new(10.5, 5.0, 0.0), Vector3::z() * 90f64.to_radians());
+        book.record_report(r3, BTreeMap::from([(r2, half_a_metre_off)]));
+        assert_eq!(book.joined(r0)[&r2].via, Some(r1), "agreeing chains");
+        // When robot 1 withdraws its merge with robot 2 and robot 3's chain is gone, robot 2 leaves.
+        book.set_own(BTreeMap::from([(r1, (pose(10.0, 90.0), 6))]));
+        book.record_report(r1, BTreeMap::from([(r0, pose(-10.0, -90.0))]));
+        assert!(!book.joined(r0).contains_key(&r2), "the chain was withdrawn");
+        assert!(
+            !book.joined(r0).contains_key(&r3),
+            "robot 3 was only reached through robot 2"
         );
     }
 }

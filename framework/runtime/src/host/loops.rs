@@ -197,6 +197,9 @@ impl RobotHost {
         }
         if changed {
             self.optimize(config)?;
+            // A merge made or withdrawn moves this robot's frames: its peers hear it now, not at its
+            // next keyframe, which may never come.
+            outbox.extend(self.frames_message_if_due());
         }
         Ok(())
     }

@@ -16,7 +16,8 @@ use crate::graph::HostGraph;
 impl RobotHost {
     /// Recomputes this robot's frames of its merged peers from the back-end: the pose of each peer's
     /// first keyframe in the frame of this robot's first keyframe, for every peer it holds accepted
-    /// loops with.
+    /// loops with (carried from the peer's earliest keyframe in the graph by the peer's odometry when
+    /// the first one is not in the graph).
     pub(crate) fn refresh_frames(&mut self) {
         let Some(graph) = self.plugins.backend.as_ref().map(|backend| backend.graph()) else {
             return;
@@ -36,7 +37,14 @@ impl RobotHost {
         let own = loops_with
             .into_iter()
             .filter_map(|(peer, loops)| {
-                let peer_first = graph.pose(first(peer))?;
+                let peer_first = graph.pose(first(peer)).or_else(|| {
+                    // The distributed graph holds a peer only where loops touch it: its first keyframe
+                    // is then placed from the earliest one the graph holds, along the peer's odometry.
+                    let held = self.graph.keyframes_of(peer).next()?;
+                    let odometry_held = self.chains.pose(held)?;
+                    let odometry_first = self.chains.pose(first(peer))?;
+                    Some(graph.pose(held)? * odometry_held.inverse() * odometry_first)
+                })?;
                 Some((peer, (own_first.inverse() * peer_first, loops)))
             })
             .collect();

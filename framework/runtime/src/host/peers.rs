@@ -200,7 +200,6 @@ impl RobotHost {
         loops: Loops,
         outbox: &mut Vec<Message>,
     ) -> Result<(), RuntimeError> {
-        let _ = outbox;
         for message in loops.accepted {
             let pair = (message.target, message.source);
             if self.loops.knows_pair(pair) {
@@ -227,7 +226,9 @@ impl RobotHost {
                 let _ = backend.remove_loop(id);
             }
         }
-        self.optimize(config)
+        self.optimize(config)?;
+        outbox.extend(self.frames_message_if_due());
+        Ok(())
     }
 
     /// Whether a loop a peer sent joins the sender and this robot, at a keyframe this robot has; a loop
