@@ -23,7 +23,8 @@ pub fn run_robot(
     );
     let mut robot = skid_runtime::SingleRobot::build(config, registry)?;
     let _viewers = viewers.attach(robot.fleet_mut())?;
-    let mut last_report = std::time::Instant::now();
+    let started = std::time::Instant::now();
+    let mut last_report = started;
     let outcome = robot.run(|scans| {
         // Several robots may share a terminal: a log line every few seconds rather than a bar.
         if last_report.elapsed().as_secs_f64() >= 2.0 {
@@ -34,6 +35,17 @@ pub fn run_robot(
     let summary = match outcome {
         Ok(summary) => summary,
         Err(error) => {
+            // What exists at the stop goes into the incomplete folder, as for a whole fleet.
+            let reason = error.to_string();
+            let partial = skid_runtime::RunSummary::interrupted(
+                robot.fleet(),
+                started.elapsed().as_secs_f64(),
+                &reason,
+            );
+            tracing::info!(%reason, "the robot stopped early; writing what it has");
+            if let Err(write_error) = skid_runtime::write_partial_outputs(robot.fleet(), &partial) {
+                tracing::warn!(error = %write_error, "could not write the partial outputs");
+            }
             let config = robot.fleet().config.clone();
             drop(robot);
             return Err(super::abandoned(&config, error));

@@ -162,6 +162,44 @@ fn interrupt_with(signal: &str, number: i32) {
 }
 
 #[test]
+fn an_interrupted_one_robot_process_keeps_what_it_has() {
+    let out = tempfile::tempdir().unwrap();
+    let mut robot = skid_run(out.path(), 1, 100_000, "lockstep")
+        .args(["--set", "deploy.robot=0"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Let it make keyframes (real time: a scan every 0.1 s).
+    std::thread::sleep(Duration::from_secs(6));
+    let killed = Command::new("kill")
+        .args(["-INT", &robot.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let status = wait_with_deadline(&mut robot, Duration::from_secs(30));
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(robot.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    assert!(!status.success(), "{stderr}");
+    let partial = std::fs::read_dir(out.path())
+        .unwrap()
+        .map(|entry| entry.unwrap().path())
+        .find(|path| path.to_string_lossy().ends_with(".incomplete"))
+        .unwrap_or_else(|| panic!("no incomplete folder: {stderr}"));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(partial.join("summary.json")).unwrap()).unwrap();
+    assert!(
+        summary["interrupted"]
+            .as_str()
+            .unwrap_or_default()
+            .contains("signal 2"),
+        "{summary}"
+    );
+    assert!(summary["robots"][0]["scans"].as_u64().unwrap() > 0, "{summary}");
+    assert!(partial.join("robot0").join("pose_graph.g2o").is_file());
+}
+
+#[test]
 fn sigint_stops_the_front_end_processes_and_leaves_an_incomplete_folder() {
     interrupt_with("INT", 2);
 }
