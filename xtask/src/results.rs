@@ -119,7 +119,8 @@ pub fn machine() -> String {
     format!("{model}, {cores} logical cores{memory}")
 }
 
-/// One profile's `results.md` for the README: headings one level down, images pointing into its folder.
+/// One profile's `results.md` for the README: headings one level down, and each image named by its path in
+/// the profile's folder rather than linked (the folder is not committed, so a link would be broken).
 pub fn readme_part(profile: &str, markdown: &str, wall_s: Option<f64>) -> String {
     let folder = format!("target/bench/{profile}");
     let mut text = String::new();
@@ -127,9 +128,12 @@ pub fn readme_part(profile: &str, markdown: &str, wall_s: Option<f64>) -> String
         let line = if line.starts_with('#') {
             format!("##{line}")
         } else if let Some(rest) = line.strip_prefix("![") {
-            // `![caption](file.png)` -> `![caption](target/bench/<profile>/file.png)`
-            match rest.split_once("](") {
-                Some((caption, file)) if !file.contains('/') => format!("![{caption}]({folder}/{file}"),
+            // `![caption](file.png)` -> `Plot, caption: `target/bench/<profile>/file.png` …`
+            match rest.rsplit_once("](") {
+                Some((caption, file)) if !file.trim_end_matches(')').contains('/') => format!(
+                    "Plot, {caption}: `{folder}/{}` (drawn by `cargo xtask bench {profile}`; not committed).",
+                    file.trim_end_matches(')')
+                ),
                 _ => line.to_owned(),
             }
         } else {
@@ -254,10 +258,17 @@ mod tests {
     }
 
     #[test]
-    fn parts_move_headings_down_and_images_into_the_folder() {
+    fn parts_move_headings_down_and_name_images_by_their_path() {
         let part = readme_part("p", "# p\n\n![PR](pr.png)\n", Some(12.0));
         assert!(part.starts_with("### p\n"), "{part}");
-        assert!(part.contains("![PR](target/bench/p/pr.png)"), "{part}");
+        assert!(
+            part.contains("Plot, PR: `target/bench/p/pr.png` (drawn by `cargo xtask bench p`"),
+            "{part}"
+        );
+        assert!(
+            !part.contains("!["),
+            "no link into the uncommitted folder: {part}"
+        );
         assert!(part.contains("12 s wall time"), "{part}");
         assert!(!replace_section("a\n", "").contains("a\n## Results"));
     }

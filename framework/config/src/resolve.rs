@@ -422,6 +422,13 @@ pub(crate) fn from_figment(figment: &Figment, error: figment::Error) -> ConfigEr
             }
             format!("missing key `{field}`")
         }
+        Kind::UnknownVariant(found, expected) => {
+            let expected: Vec<String> = expected.iter().map(|name| format!("`{name}`")).collect();
+            format!(
+                "unknown value `{found}`; expected one of: {}",
+                expected.join(", ")
+            )
+        }
         other => other.to_string(),
     };
     // A value of the wrong type says what serde expected; the fleet size's range is worth saying too.

@@ -128,6 +128,22 @@ fn unknown_plugin_lists_the_known_ones() {
 }
 
 #[test]
+fn an_unknown_choice_lists_the_choices_once_quoted() {
+    let error = ConfigSources {
+        sets: vec!["deploy.mode=process".to_owned()],
+        ..sources()
+    }
+    .load(&registry())
+    .unwrap_err();
+    assert_invalid(
+        error,
+        "--set deploy.mode=process",
+        "deploy.mode",
+        &["unknown value `process`; expected one of: `lockstep`, `threads`, `processes`"],
+    );
+}
+
+#[test]
 fn a_plugin_this_build_leaves_out_says_how_to_build_it_in() {
     let mut registry = registry();
     registry.note_left_out(

@@ -23,6 +23,9 @@ struct TopicSummary {
 
 /// `skid bag info PATH [--json]`.
 pub fn info(path: &Path, json: bool) -> Result<()> {
+    if !path.exists() {
+        anyhow::bail!("{}: no such file or folder", path.display());
+    }
     let mut bag = Bag::open(path)?;
     let storages: Vec<String> = bag
         .files()

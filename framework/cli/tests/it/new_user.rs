@@ -191,6 +191,13 @@ fn a_fine_registration_that_does_not_converge_exits_non_zero_with_the_reason() {
 }
 
 #[test]
+fn a_missing_bag_is_named_with_what_is_wrong() {
+    let output = skid(&["bag", "info", "/nonexistent/missing.bag"]);
+    let stderr = fails_with(&output, &["/nonexistent/missing.bag", "no such file or folder"]);
+    assert!(!stderr.contains("entity not found"), "{stderr}");
+}
+
+#[test]
 fn an_unknown_plugin_flag_is_named_as_the_flag_with_the_known_names() {
     let pair = data("lidar_scan_pair_fast_gicp");
     let (target, source) = (pair.join("251370668.pcd"), pair.join("251371071.pcd"));
