@@ -153,6 +153,8 @@ struct ProgressLog {
     started: std::time::Instant,
     last: std::time::Instant,
     enabled: bool,
+    /// Whether the end of the scans was said (the loops, the last optimisation and the outputs follow).
+    scans_done: bool,
 }
 
 impl ProgressLog {
@@ -166,11 +168,23 @@ impl ProgressLog {
             started: now,
             last: now,
             enabled: !std::io::IsTerminal::is_terminal(&std::io::stderr()),
+            scans_done: false,
         }
     }
 
     fn update(&mut self, scans: u64) {
         self.scans = scans;
+        if self.total_scans > 0 && scans >= self.total_scans && !self.scans_done {
+            // The estimate below counts scans only; say when they are done, since the loops still in
+            // flight, the last optimisation and the outputs take a while longer.
+            self.scans_done = true;
+            tracing::info!(
+                "all {scans} scans read in {:.0} s; finishing the loops in flight, optimising and writing \
+                 the outputs",
+                self.started.elapsed().as_secs_f64()
+            );
+            return;
+        }
         if !self.enabled || self.last.elapsed().as_secs_f64() < Self::PERIOD_S {
             return;
         }
@@ -180,7 +194,7 @@ impl ProgressLog {
         if self.total_scans > 0 {
             let remaining_s = self.total_scans.saturating_sub(scans) as f64 / rate.max(1e-9);
             tracing::info!(
-                "{scans}/{} scans ({:.0}%), {rate:.1} scans/s, {elapsed_s:.0} s elapsed, about {remaining_s:.0} s left",
+                "{scans}/{} scans ({:.0}%), {rate:.1} scans/s, {elapsed_s:.0} s elapsed, about {remaining_s:.0} s of scans left",
                 self.total_scans,
                 100.0 * scans as f64 / self.total_scans as f64
             );

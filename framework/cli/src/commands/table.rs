@@ -76,14 +76,15 @@ fn or_dash(value: Option<String>) -> String {
     value.unwrap_or_else(|| "-".to_owned())
 }
 
-/// The per-robot table after a run: path, ATE, the α/β error, loops, bytes and time.
+/// The per-robot table after a run: path, ATE after SE(3) alignment (`metrics.json`'s `ate_m`; the
+/// summary's `ate_first_pose_aligned_m` aligns the first poses only), the α/β error, loops, bytes and time.
 pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path::Path) -> String {
     let mut table = Table::new(&[
         "robot",
         "scans",
         "keyframes",
         "path m",
-        "ATE m (% path)",
+        "ATE m, SE(3)-aligned (% path)",
         "α/β error m / °",
         "loops acc/rej/undecided",
         "sent",

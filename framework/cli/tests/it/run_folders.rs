@@ -218,6 +218,9 @@ fn a_rerun_replaces_the_earlier_run_whole() {
         "{}",
         String::from_utf8_lossy(&three.stderr)
     );
+    // The log says when the scans are done, before the work that follows them.
+    let log = String::from_utf8_lossy(&three.stderr);
+    assert!(log.contains("all 6 scans read"), "{log}");
     let folder = out.path().join("stopped");
     assert!(folder.join("robot2").is_dir());
     let two = skid_run(out.path(), 2, 2, "lockstep").output().unwrap();
