@@ -170,8 +170,23 @@ fn an_interrupted_one_robot_process_keeps_what_it_has() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Let it make keyframes (real time: a scan every 0.1 s).
-    std::thread::sleep(Duration::from_secs(6));
+    // Once the run has started (its folder exists), let it make keyframes (real time: a scan every 0.1 s).
+    let incomplete = || {
+        std::fs::read_dir(out.path())
+            .unwrap()
+            .map(|entry| entry.unwrap().path())
+            .find(|path| path.to_string_lossy().ends_with(".incomplete"))
+    };
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while incomplete().is_none() {
+        assert!(
+            robot.try_wait().unwrap().is_none(),
+            "the robot ended before it started"
+        );
+        assert!(Instant::now() < deadline, "the run folder never appeared");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(Duration::from_secs(4));
     let killed = Command::new("kill")
         .args(["-INT", &robot.id().to_string()])
         .status()
@@ -181,11 +196,7 @@ fn an_interrupted_one_robot_process_keeps_what_it_has() {
     let mut stderr = String::new();
     std::io::Read::read_to_string(robot.stderr.as_mut().unwrap(), &mut stderr).unwrap();
     assert!(!status.success(), "{stderr}");
-    let partial = std::fs::read_dir(out.path())
-        .unwrap()
-        .map(|entry| entry.unwrap().path())
-        .find(|path| path.to_string_lossy().ends_with(".incomplete"))
-        .unwrap_or_else(|| panic!("no incomplete folder: {stderr}"));
+    let partial = incomplete().unwrap_or_else(|| panic!("no incomplete folder: {stderr}"));
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(partial.join("summary.json")).unwrap()).unwrap();
     assert!(
