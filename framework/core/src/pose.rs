@@ -57,6 +57,15 @@ pub fn information_from_wire(wire: &Information6) -> Information {
     Matrix6::from_row_slice(&wire.row_major)
 }
 
+/// True when every component of the pose (translation and quaternion) is finite.
+pub fn is_finite(pose: &Pose) -> bool {
+    pose.translation
+        .vector
+        .iter()
+        .chain(pose.rotation.coords.iter())
+        .all(|v| v.is_finite())
+}
+
 /// Rotation angle of a pose in radians, in [0, π].
 pub fn rotation_angle_rad(pose: &Pose) -> f64 {
     pose.rotation.angle()

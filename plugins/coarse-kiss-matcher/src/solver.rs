@@ -234,13 +234,7 @@ pub(crate) fn solve(
         Translation3::from(translation),
         UnitQuaternion::from_rotation_matrix(&rotation.rotation),
     );
-    let finite = pose
-        .translation
-        .vector
-        .iter()
-        .chain(pose.rotation.coords.iter())
-        .all(|v| v.is_finite());
-    finite.then(|| {
+    skid_core::pose::is_finite(&pose).then(|| {
         (
             pose,
             rotation.inlier_count,

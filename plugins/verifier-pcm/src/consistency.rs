@@ -37,13 +37,7 @@ impl PcmLoop {
     /// Validates a closure and orients it; the error says why it cannot be used.
     pub fn from_closure(closure: &LoopClosure) -> Result<Self, String> {
         let pose = &closure.target_from_source;
-        let finite = pose
-            .translation
-            .vector
-            .iter()
-            .chain(pose.rotation.coords.iter())
-            .all(|v| v.is_finite());
-        if !finite {
+        if !skid_core::pose::is_finite(pose) {
             return Err("the measured pose is not finite".into());
         }
         let information = closure.information;

@@ -21,14 +21,7 @@ fn plugin(variant: Variant) -> GicpRegistration {
 }
 
 fn assert_finite(alignment: &FineAlignment) {
-    let pose = &alignment.target_from_source;
-    assert!(
-        pose.translation
-            .vector
-            .iter()
-            .chain(pose.rotation.coords.iter())
-            .all(|v| v.is_finite())
-    );
+    assert!(skid_core::pose::is_finite(&alignment.target_from_source));
     assert!(alignment.information.iter().all(|v| v.is_finite()));
     assert!(alignment.error.is_finite() && alignment.inlier_ratio.is_finite());
 }
