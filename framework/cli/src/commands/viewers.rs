@@ -26,7 +26,10 @@ pub struct Attached {
 impl Viewers {
     /// Attaches the asked-for viewers (and the configuration's live ROS 2 output) to `fleet`.
     pub fn attach(&self, fleet: &mut skid_runtime::Fleet) -> Result<Attached> {
+        #[cfg(feature = "zenoh")]
         let ros2 = live_ros2(fleet)?;
+        #[cfg(not(feature = "zenoh"))]
+        refuse_live_ros2(fleet)?;
         #[cfg(feature = "rerun")]
         let rerun = rerun_stream::attach(self, fleet)?;
         #[cfg(not(feature = "rerun"))]
@@ -46,7 +49,7 @@ impl Viewers {
 
 /// Without the `zenoh` feature, `output.ros2` is refused with how to build it in.
 #[cfg(not(feature = "zenoh"))]
-fn live_ros2(fleet: &mut skid_runtime::Fleet) -> Result<()> {
+fn refuse_live_ros2(fleet: &skid_runtime::Fleet) -> Result<()> {
     if fleet.config.output.ros2 {
         anyhow::bail!(
             "output.ros2 = true: this skid was built without zenoh, which the live ROS 2 output speaks; \
