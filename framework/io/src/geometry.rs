@@ -56,6 +56,24 @@ pub fn isometry_from_3x4(values: &[f64; 12]) -> Result<Isometry3<f64>, String> {
     ))
 }
 
+/// The isometry of a row-major 4x4 homogeneous transform (16 numbers) whose last row is `0 0 0 1`, with
+/// `R` re-orthonormalised by [`nearest_rotation`].
+pub fn isometry_from_4x4(values: &[f64; 16]) -> Result<Isometry3<f64>, String> {
+    let last_row = &values[12..16];
+    if last_row
+        .iter()
+        .zip([0.0, 0.0, 0.0, 1.0])
+        .any(|(v, e)| (v - e).abs() > 1e-9)
+    {
+        return Err(format!(
+            "the last row of a transform must be 0 0 0 1, found {last_row:?}"
+        ));
+    }
+    let mut upper = [0.0; 12];
+    upper.copy_from_slice(&values[..12]);
+    isometry_from_3x4(&upper)
+}
+
 /// The row-major 3x4 `[R | t]` of an isometry.
 pub fn isometry_to_3x4(pose: &Isometry3<f64>) -> [f64; 12] {
     let r = pose.rotation.to_rotation_matrix();

@@ -28,6 +28,7 @@ pub mod jrl;
 pub mod kitti;
 pub mod pcd;
 pub mod ply;
+pub mod scan_pair;
 pub mod staged;
 mod text;
 pub mod toro;

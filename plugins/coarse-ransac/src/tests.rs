@@ -1,7 +1,7 @@
 //! Tests of the `ransac` plugin: the coarse conformance suite, the real HDL-32E pair yawed and moved
 //! 10 m, and bad input.
 
-use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use skid_core::slots::CoarseRegistration;
 use skid_core::{Cloud, Params, PluginContext, Point, Pose, Registry, Slot};
 use skid_testkit::pose_error;
@@ -18,20 +18,12 @@ fn context() -> PluginContext {
 
 /// The real scan pair and the reference `target_from_source`.
 fn real_pair() -> (Cloud, Cloud, Pose) {
-    let dir = skid_io::data_path("lidar_scan_pair_fast_gicp").unwrap();
-    let read = |name: &str| {
-        let cloud = skid_io::pcd::read_pcd(dir.join(name), skid_io::CloudReadOptions::VALID_ONLY).unwrap();
-        Cloud::new(cloud.points)
-    };
-    let text = std::fs::read_to_string(dir.join("relative_fast_gicp.txt")).unwrap();
-    let values: Vec<f64> = text.split_whitespace().map(|v| v.parse().unwrap()).collect();
-    let matrix = Matrix4::from_row_slice(&values);
-    let rotation = Rotation3::from_matrix(&matrix.fixed_view::<3, 3>(0, 0).into_owned());
-    let truth = Pose::from_parts(
-        Translation3::new(matrix[(0, 3)], matrix[(1, 3)], matrix[(2, 3)]),
-        UnitQuaternion::from_rotation_matrix(&rotation),
-    );
-    (read("251370668.pcd"), read("251371071.pcd"), truth)
+    let pair = skid_io::scan_pair::read_scan_pair().unwrap();
+    (
+        Cloud::new(pair.target),
+        Cloud::new(pair.source),
+        pair.target_from_source,
+    )
 }
 
 /// The conformance scene is about one random sample per m², far sparser than a LiDAR keyframe, so the

@@ -4,7 +4,6 @@
 //! sets it to the benchmark venv, which has the package).
 
 use anyhow::{Context, Result, bail};
-use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion};
 use serde::Deserialize;
 use skid_core::{Cloud, Pose};
 use skid_io::kitti::write_kitti_bin;
@@ -33,15 +32,13 @@ struct Record {
 }
 
 fn pose_from_row_major(values: &[f64]) -> Result<Pose> {
-    if values.len() != 16 || values.iter().any(|v| !v.is_finite()) {
-        bail!("the reference returned a pose that is not 16 finite numbers");
-    }
-    let matrix = Matrix4::from_row_slice(values);
-    let rotation = Rotation3::from_matrix(&matrix.fixed_view::<3, 3>(0, 0).into_owned());
-    Ok(Pose::from_parts(
-        Translation3::new(matrix[(0, 3)], matrix[(1, 3)], matrix[(2, 3)]),
-        UnitQuaternion::from_rotation_matrix(&rotation),
-    ))
+    let matrix = <[f64; 16]>::try_from(values)
+        .ok()
+        .filter(|values| values.iter().all(|v| v.is_finite()))
+        .context("the reference returned a pose that is not 16 finite numbers")?;
+    skid_io::geometry::isometry_from_4x4(&matrix).map_err(|message| {
+        anyhow::anyhow!("the reference returned a pose that is not a transform: {message}")
+    })
 }
 
 /// Runs the reference on `(target, source)` pairs with voxel size `voxel_m`. `Ok(None)` when

@@ -10,7 +10,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result, anyhow};
-use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use skid_core::{Cloud, Pose};
 use skid_eval::plot::{PlotOptions, Series, line_plot};
@@ -91,30 +91,12 @@ pub struct SweepEntry {
 
 /// The real pair: target, source and the reference `target_from_source`.
 pub fn read_real_pair() -> Result<(Cloud, Cloud, Pose)> {
-    let dir = skid_io::data_path("lidar_scan_pair_fast_gicp")?;
-    let read = |name: &str| -> Result<Cloud> {
-        let cloud = skid_io::pcd::read_pcd(dir.join(name), skid_io::CloudReadOptions::VALID_ONLY)
-            .with_context(|| format!("reading {name}"))?;
-        Ok(Cloud::new(cloud.points))
-    };
-    let text = std::fs::read_to_string(dir.join("relative_fast_gicp.txt"))?;
-    let values = text
-        .split_whitespace()
-        .map(str::parse::<f64>)
-        .collect::<Result<Vec<f64>, _>>()?;
-    if values.len() != 16 {
-        return Err(anyhow!(
-            "relative_fast_gicp.txt: {} numbers, 16 expected",
-            values.len()
-        ));
-    }
-    let matrix = Matrix4::from_row_slice(&values);
-    let rotation = Rotation3::from_matrix(&matrix.fixed_view::<3, 3>(0, 0).into_owned());
-    let truth = Pose::from_parts(
-        Translation3::new(matrix[(0, 3)], matrix[(1, 3)], matrix[(2, 3)]),
-        UnitQuaternion::from_rotation_matrix(&rotation),
-    );
-    Ok((read("251370668.pcd")?, read("251371071.pcd")?, truth))
+    let pair = skid_io::scan_pair::read_scan_pair().context("reading the real scan pair")?;
+    Ok((
+        Cloud::new(pair.target),
+        Cloud::new(pair.source),
+        pair.target_from_source,
+    ))
 }
 
 fn success_rate(entries: &[&SweepEntry]) -> f64 {

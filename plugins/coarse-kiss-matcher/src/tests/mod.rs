@@ -2,7 +2,7 @@
 //! real HDL-32E pair (fast_gicp's unit-test data) yawed all around and moved 10 m, and bad input; the
 //! second-best hypothesis test in [`rival`].
 
-use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use skid_core::slots::CoarseRegistration;
 use skid_core::{Cloud, Params, PluginContext, Point, Pose, Registry, Slot};
 use skid_testkit::pose_error;
@@ -25,20 +25,12 @@ pub(crate) fn matcher() -> KissMatcher {
 
 /// The real scan pair and the reference `target_from_source`.
 pub(crate) fn real_pair() -> (Cloud, Cloud, Pose) {
-    let dir = skid_io::data_path("lidar_scan_pair_fast_gicp").unwrap();
-    let read = |name: &str| {
-        let cloud = skid_io::pcd::read_pcd(dir.join(name), skid_io::CloudReadOptions::VALID_ONLY).unwrap();
-        Cloud::new(cloud.points)
-    };
-    let text = std::fs::read_to_string(dir.join("relative_fast_gicp.txt")).unwrap();
-    let values: Vec<f64> = text.split_whitespace().map(|v| v.parse().unwrap()).collect();
-    let matrix = Matrix4::from_row_slice(&values);
-    let rotation = Rotation3::from_matrix(&matrix.fixed_view::<3, 3>(0, 0).into_owned());
-    let truth = Pose::from_parts(
-        Translation3::new(matrix[(0, 3)], matrix[(1, 3)], matrix[(2, 3)]),
-        UnitQuaternion::from_rotation_matrix(&rotation),
-    );
-    (read("251370668.pcd"), read("251371071.pcd"), truth)
+    let pair = skid_io::scan_pair::read_scan_pair().unwrap();
+    (
+        Cloud::new(pair.target),
+        Cloud::new(pair.source),
+        pair.target_from_source,
+    )
 }
 
 /// The conformance scene has 20,000 random surface samples over a 60 m radius (about one per m², each

@@ -8,14 +8,12 @@
 
 use std::sync::OnceLock;
 
-use nalgebra::{Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use skid_core::slots::{FineRegistration, PreparedCloud};
 use skid_core::{Cloud, PluginContext, Point, Pose};
 use skid_fine_gicp::{GicpConfig, GicpRegistration, Variant, prepared_data};
-use skid_io::CloudReadOptions;
+use skid_io::scan_pair::SMALL_GICP_REFERENCE;
 use skid_testkit::pose_error;
-
-const FOLDER: &str = "lidar_scan_pair_fast_gicp";
 
 struct Pair {
     target: Vec<Point>,
@@ -27,37 +25,17 @@ struct Pair {
 }
 
 fn read_pose(name: &str) -> Pose {
-    let path = skid_io::data_path(format!("{FOLDER}/{name}")).unwrap();
-    let text = std::fs::read_to_string(&path).unwrap();
-    let values: Vec<f64> = text.split_whitespace().map(|v| v.parse().unwrap()).collect();
-    assert_eq!(values.len(), 16, "{}", path.display());
-    let m = Matrix4::from_row_slice(&values);
-    let rotation = Rotation3::from_matrix(&m.fixed_view::<3, 3>(0, 0).into_owned());
-    Pose::from_parts(
-        Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]),
-        UnitQuaternion::from_rotation_matrix(&rotation),
-    )
+    skid_io::scan_pair::read_scan_pair_reference(name).unwrap()
 }
 
 fn pair() -> &'static Pair {
     static PAIR: OnceLock<Pair> = OnceLock::new();
     PAIR.get_or_init(|| {
-        let read = |name: &str| {
-            let path = skid_io::data_path(format!("{FOLDER}/{name}")).unwrap();
-            skid_io::pcd::read_pcd(path, CloudReadOptions::VALID_ONLY).unwrap()
-        };
-        let (target, source) = (read("251370668.pcd"), read("251371071.pcd"));
-        assert_eq!(
-            (target.points.len(), source.points.len()),
-            (69_088 - 5_032, 69_792 - 5_107)
-        );
+        let pair = skid_io::scan_pair::read_scan_pair().unwrap();
         Pair {
-            target: target.points,
-            source: source.points,
-            references: [
-                read_pose("T_target_source_small_gicp.txt"),
-                read_pose("relative_fast_gicp.txt"),
-            ],
+            target: pair.target,
+            source: pair.source,
+            references: [read_pose(SMALL_GICP_REFERENCE), pair.target_from_source],
             small_gicp_computed: read_pose("T_target_source_small_gicp_computed.txt"),
         }
     })
