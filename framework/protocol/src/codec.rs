@@ -38,6 +38,8 @@ pub enum CodecError {
     NonFiniteValue { index: usize },
     #[error("quantisation range [{min}, {max}] is invalid")]
     BadRange { min: f32, max: f32 },
+    #[error("the packed cloud does not unpack: {0}")]
+    Unpack(String),
 }
 
 /// Largest grid coordinate used, so that Morton keys fit 21 bits per axis after offsetting.
@@ -49,7 +51,13 @@ const MAX_GRID: i64 = (1 << 20) - 1;
 pub const MAX_RESOLUTION_M: f32 = 100.0;
 
 /// A quantised, delta-coded point cloud.
+///
+/// On the wire it travels packed (see [`crate::packed`]): postcard's bytes compressed by zstd.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    into = "crate::packed::PackedPoints",
+    try_from = "crate::packed::PackedPoints"
+)]
 pub struct CompressedPoints {
     /// Grid step in metres; each coordinate is recovered within half of it.
     pub resolution_m: f32,

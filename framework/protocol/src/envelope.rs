@@ -19,10 +19,10 @@ use crate::messages::{
 pub const MAGIC: [u8; 4] = *b"SKiD";
 
 /// The protocol version this build writes.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
 
 /// The oldest protocol version this build reads.
-pub const MIN_SUPPORTED_VERSION: u16 = 1;
+pub const MIN_SUPPORTED_VERSION: u16 = 2;
 
 /// Upper bound of an encoded envelope header: magic plus the varints of its fields.
 pub const MAX_HEADER_BYTES: usize = 4 + 3 + 5 + 5 + 10 + 1 + 5;

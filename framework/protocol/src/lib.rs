@@ -5,6 +5,7 @@
 //!
 //! - [`messages`]: [`Message`] and its bodies, with semantic validation.
 //! - [`codec`]: compact cloud (1 cm grid, Morton order, delta varints) and quantised descriptor forms.
+//! - [`packed`]: a cloud's wire form, those varints compressed by zstd and unpacked through a bound.
 //! - [`wire`]: poses and information matrices on the wire.
 //! - [`envelope`]: [`encode`], [`decode`], [`decode_envelope`], [`ProtocolConfig`] and typed errors.
 //! - [`endpoint`]: [`ProtocolEndpoint`], numbering, classification and [`Counters`] for one robot.
@@ -18,6 +19,7 @@ pub mod counters;
 pub mod endpoint;
 pub mod envelope;
 pub mod messages;
+pub mod packed;
 pub mod sequence;
 pub mod wire;
 

@@ -110,12 +110,19 @@ fn envelope_checks_come_before_the_payload() {
         Err(DecodeError::BadMagic { .. })
     ));
 
-    // Version 2 in the first header byte (a one-byte varint).
+    // The next version in the first header byte (a one-byte varint).
     let mut future = bytes.clone();
-    future[4] = 2;
+    future[4] = (PROTOCOL_VERSION + 1) as u8;
     assert!(matches!(
         decode(&future, &config),
-        Err(DecodeError::UnsupportedVersion { found: 2, .. })
+        Err(DecodeError::UnsupportedVersion { found, .. }) if found == PROTOCOL_VERSION + 1
+    ));
+    // Version 1 sent clouds as bare varints; a peer of that version is refused, not misread.
+    let mut old = bytes.clone();
+    old[4] = 1;
+    assert!(matches!(
+        decode(&old, &config),
+        Err(DecodeError::UnsupportedVersion { found: 1, .. })
     ));
 
     let truncated = &bytes[..bytes.len() - 1];
@@ -153,9 +160,9 @@ fn envelope_checks_come_before_the_payload() {
 #[test]
 fn a_lying_length_is_refused_without_decoding() {
     let config = ProtocolConfig::default();
-    // Magic, version 1, robot 0, session 0, sequence 0, kind 5 (cloud), payload_len = 2^31 (varint).
+    // Magic, this version, robot 0, session 0, sequence 0, kind 5 (cloud), payload_len = 2^31 (varint).
     let mut bytes = b"SKiD".to_vec();
-    bytes.extend_from_slice(&[1, 0, 0, 0, 5, 0x80, 0x80, 0x80, 0x80, 0x08]);
+    bytes.extend_from_slice(&[PROTOCOL_VERSION as u8, 0, 0, 0, 5, 0x80, 0x80, 0x80, 0x80, 0x08]);
     bytes.extend_from_slice(&[0; 16]);
     assert!(matches!(
         decode(&bytes, &config),
@@ -166,7 +173,7 @@ fn a_lying_length_is_refused_without_decoding() {
     ));
     // A kind this build does not know.
     let mut unknown = b"SKiD".to_vec();
-    unknown.extend_from_slice(&[1, 0, 0, 0, 42, 0]);
+    unknown.extend_from_slice(&[PROTOCOL_VERSION as u8, 0, 0, 0, 42, 0]);
     assert!(matches!(
         decode(&unknown, &config),
         Err(DecodeError::UnknownKind(42))
