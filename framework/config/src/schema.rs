@@ -262,6 +262,23 @@ pub struct LoopsSection {
     /// street admits shifted alignments nearly as strong), and only 3 of 13 wrong urban ones; a ray-cast
     /// hall with 90° symmetry scores 0.62 and the real HDL-32E pair 0.
     pub ambiguous_rival_ratio: f64,
+    /// Inter-robot candidates admitted to registration per budget period, and the most that may wait
+    /// for a peer's cloud at once; the rest queue, best first (a robot not yet in this robot's frame,
+    /// then a cloud already held or asked for, then the closest descriptor).
+    pub inter_robot_budget: usize,
+    /// The budget's period, seconds of robot time.
+    pub budget_period_s: f64,
+    /// A candidate still queued, or still waiting for its cloud, this many seconds after it was raised
+    /// (or admitted) expires and is counted.
+    pub candidate_expiry_s: f64,
+    /// Most inter-robot candidates queued per robot; a full queue pushes out its worst.
+    pub candidate_queue: usize,
+    /// Grid step clouds are quantised to for peers, metres (each coordinate within half of it). The
+    /// keyframes are 0.25 m voxel centroids, so a 5 cm grid changes registration by less than its noise.
+    pub cloud_grid_m: f64,
+    /// A cloud is sent to the same peer again only this many seconds after the first copy (longer than
+    /// a link holds a message back, so the first copy must have been lost).
+    pub cloud_resend_after_s: f64,
 }
 
 impl Default for LoopsSection {
@@ -279,6 +296,12 @@ impl Default for LoopsSection {
             optimize_iterations: 30,
             refine_invalid_coarse: true,
             ambiguous_rival_ratio: 0.0,
+            inter_robot_budget: 6,
+            budget_period_s: 1.0,
+            candidate_expiry_s: 30.0,
+            candidate_queue: 64,
+            cloud_grid_m: 0.05,
+            cloud_resend_after_s: 8.0,
         }
     }
 }
@@ -294,6 +317,39 @@ impl LoopsSection {
                     self.ambiguous_rival_ratio
                 ),
             );
+        }
+        if self.inter_robot_budget == 0 {
+            return SectionError::at(
+                "loops.inter_robot_budget",
+                "loops.inter_robot_budget = 0 would verify no inter-robot candidate; set loops.inter_robot = false to turn them off"
+                    .to_owned(),
+            );
+        }
+        if self.candidate_queue == 0 {
+            return SectionError::at(
+                "loops.candidate_queue",
+                "loops.candidate_queue must hold at least one candidate".to_owned(),
+            );
+        }
+        for (key, value, low, high) in [
+            ("loops.budget_period_s", self.budget_period_s, 1e-3, 3600.0),
+            (
+                "loops.candidate_expiry_s",
+                self.candidate_expiry_s,
+                1e-3,
+                86_400.0,
+            ),
+            ("loops.cloud_grid_m", self.cloud_grid_m, 1e-4, 0.5),
+            (
+                "loops.cloud_resend_after_s",
+                self.cloud_resend_after_s,
+                0.0,
+                3600.0,
+            ),
+        ] {
+            if !(low..=high).contains(&value) {
+                return SectionError::at(key, format!("{key} = {value} must lie in [{low}, {high}]"));
+            }
         }
         Ok(())
     }

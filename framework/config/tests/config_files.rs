@@ -334,6 +334,12 @@ fn out_of_range_values_are_refused_at_load_time_naming_the_key() {
             "coarse.kiss_matcher.voxel_size_m",
         ),
         ("coarse.ransac.voxel_size_m=0", "coarse.ransac.voxel_size_m"),
+        ("loops.inter_robot_budget=0", "loops.inter_robot_budget"),
+        ("loops.candidate_queue=0", "loops.candidate_queue"),
+        ("loops.budget_period_s=0", "loops.budget_period_s"),
+        ("loops.candidate_expiry_s=nan", "loops.candidate_expiry_s"),
+        ("loops.cloud_grid_m=2", "loops.cloud_grid_m"),
+        ("loops.cloud_resend_after_s=-1", "loops.cloud_resend_after_s"),
         (
             "fine.gicp.max_correspondence_m=0",
             "fine.gicp.max_correspondence_m",

@@ -24,7 +24,9 @@ use crate::error::RuntimeError;
 use crate::frontend::FrontEndFeed;
 use crate::peer_faults::PeerFaults;
 
+mod admission;
 mod backend_book;
+mod candidate_queue;
 mod frame_book;
 mod loop_book;
 mod loops;
@@ -33,8 +35,10 @@ mod own_track;
 mod peer_clouds;
 mod peers;
 mod scan_step;
+mod served_clouds;
 
 use backend_book::BackendBook;
+use candidate_queue::CandidateQueue;
 use frame_book::FrameBook;
 pub use frame_book::JoinedFrame;
 use loop_book::LoopBook;
@@ -42,6 +46,8 @@ pub use loop_book::{LoopStanding, LoopStats, StandingLoop};
 use own_track::OwnTrack;
 pub use own_track::ScanRecord;
 use peer_clouds::PeerClouds;
+pub use served_clouds::CloudServing;
+use served_clouds::ServedClouds;
 
 /// The plugin instances of one robot; every slot but the source may be empty.
 pub struct Plugins {
@@ -72,6 +78,10 @@ pub struct RobotHost {
     own: OwnTrack,
     loops: LoopBook,
     peer_clouds: PeerClouds,
+    /// Inter-robot candidates waiting for the loop-closure budget.
+    candidates: CandidateQueue,
+    /// The own clouds sent to each peer.
+    served: ServedClouds,
     /// Well-formed peer messages refused (wrong descriptor kind, foreign loops, …), by class.
     peer_faults: PeerFaults,
     graph: BackendBook,
@@ -102,6 +112,8 @@ impl RobotHost {
             own: OwnTrack::default(),
             loops: LoopBook::default(),
             peer_clouds: PeerClouds::default(),
+            candidates: CandidateQueue::default(),
+            served: ServedClouds::default(),
             peer_faults: PeerFaults::default(),
             graph: BackendBook::default(),
             frames: FrameBook::default(),
@@ -231,6 +243,12 @@ impl RobotHost {
         self.frames.joined(self.robot)
     }
 
+    /// When each robot was first placed in this robot's frame (directly or through others), by this
+    /// host's clock (scan time in a fleet run).
+    pub fn first_joined_nanos(&self) -> &BTreeMap<RobotId, u64> {
+        self.frames.first_joined_nanos()
+    }
+
     /// The loops in this robot's graph (its own accepted ones and those its peers accepted with it).
     pub fn accepted_loops(&self) -> &BTreeMap<LoopId, LoopClosure> {
         self.loops.accepted()
@@ -246,9 +264,14 @@ impl RobotHost {
         self.peer_clouds.oldest_request_nanos()
     }
 
-    /// Whether inter-robot candidates still wait for a peer's cloud.
+    /// Whether inter-robot candidates still wait for a peer's cloud or for the budget.
     pub fn awaits_clouds(&self) -> bool {
-        self.peer_clouds.waiting() > 0
+        self.peer_clouds.waiting() > 0 || self.candidates.len() > 0
+    }
+
+    /// What this robot did with its peers' requests for its clouds.
+    pub fn cloud_serving(&self) -> CloudServing {
+        self.served.counts()
     }
 
     /// Moves this host's clock on to `nanos` (scan-time executors, after the sources end).
@@ -263,7 +286,12 @@ impl RobotHost {
 
     /// The loop counters with the accepted, rejected, undecided and awaiting counts as they stand now.
     pub fn loop_stats(&self) -> LoopStats {
-        self.loops.stats(self.peer_clouds.waiting())
+        self.loops.stats(loop_book::BudgetFigures {
+            queued: self.candidates.len(),
+            expired: self.candidates.expired(),
+            admitted: self.candidates.admitted(),
+            awaiting_cloud: self.peer_clouds.waiting(),
+        })
     }
 
     pub(crate) fn plugin_error(

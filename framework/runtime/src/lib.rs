@@ -41,7 +41,9 @@ pub use error::RuntimeError;
 pub use fleet::Fleet;
 pub use frontend::{FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome, ThreadFeed};
 pub use graph::HostGraph;
-pub use host::{JoinedFrame, LoopStanding, LoopStats, Plugins, RobotHost, ScanRecord, StandingLoop};
+pub use host::{
+    CloudServing, JoinedFrame, LoopStanding, LoopStats, Plugins, RobotHost, ScanRecord, StandingLoop,
+};
 pub use loop_lines::{LOOP_CLASSES, PlacedLoop, loop_class_of_namespace, own_frame_loops};
 pub use map_clouds::{MAP_VOXEL_M, merged_map};
 pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};

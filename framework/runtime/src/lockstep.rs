@@ -48,7 +48,7 @@ impl Fleet {
                     .map_err(crate::stop::or_interrupted)?;
                 self.observers.after_step(robot, scans, optimizations);
                 done += usize::from(!robot.finished);
-                outbox.extend(robot.due_cloud_requests(CLOUD_RETRY_NANOS));
+                outbox.extend(robot.loop_upkeep(&self.config, CLOUD_RETRY_NANOS)?);
                 send_all(robot, outbox);
             }
             self.sync_hub();
@@ -66,7 +66,7 @@ impl Fleet {
                 hub.advance_to(hub.now_nanos() + CLOUD_RETRY_NANOS);
                 for robot in &mut self.robots {
                     robot.advance_clock_to(hub.now_nanos());
-                    let again = robot.due_cloud_requests(CLOUD_RETRY_NANOS);
+                    let again = robot.loop_upkeep(&self.config, CLOUD_RETRY_NANOS)?;
                     send_all(robot, again);
                 }
             }

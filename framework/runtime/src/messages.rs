@@ -10,9 +10,6 @@ use skid_protocol::{
 
 use crate::settings::information_from_covariance;
 
-/// Resolution of clouds sent to peers, in metres.
-pub const CLOUD_RESOLUTION_M: f32 = 0.01;
-
 /// A keyframe's descriptor, for every peer.
 pub fn descriptor_message(robot: RobotId, keyframe: &Keyframe, descriptor: &DescriptorBuf) -> Message {
     let values = DescriptorValues::encode(&descriptor.values, DescriptorEncoding::F32)

@@ -49,6 +49,8 @@ pub struct AlignmentMetrics {
     /// The robot through which α placed β, when α holds no loop with β.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub joined_via: Option<u32>,
+    /// Seconds of robot time from α's first scan to when α first placed β in its frame.
+    pub joined_after_s: Option<f64>,
     /// `T_β,APE = (T^GT_β)⁻¹ · T^GT_α · T^α_β`.
     pub beta_alignment_error: TransformError,
     /// The translation of `T_β,APE` as a percentage of β's path length.
@@ -87,6 +89,11 @@ pub struct RunMetrics {
     pub loops_rejected: usize,
     pub loops_undecided: usize,
     pub bytes_sent_total: u64,
+    /// Robots other than α that α placed in its frame (directly or through others).
+    pub robots_in_alpha_frame: usize,
+    /// Bytes of keyframe clouds sent by every robot per inter-robot loop accepted: what a loop costs
+    /// the links (`None` without an accepted loop).
+    pub cloud_bytes_per_inter_loop: Option<f64>,
 }
 
 /// Pairs of (ground truth, estimate) for every scan that has ground truth.
@@ -228,10 +235,16 @@ fn alignment_metrics(
         })
         .flatten()
         .map(|via| via.0);
+    let joined_after_s = alpha
+        .first_joined_nanos()
+        .get(&beta.robot())
+        .zip(alpha.scans().first())
+        .map(|(&joined_nanos, first)| joined_nanos.saturating_sub(first.stamp_nanos) as f64 * 1e-9);
     Ok(AlignmentMetrics {
         alpha: alpha.robot().0,
         shared_keyframes,
         joined_via,
+        joined_after_s,
         beta_alignment_percent_of_path: 100.0 * result.beta_alignment_error.translation_m / beta_path_m,
         beta_alignment_error: result.beta_alignment_error,
         beta_in_alpha_ate_m: result.beta_in_alpha.translation_m,
@@ -291,8 +304,15 @@ impl RunMetrics {
             .zip(frames)
             .map(|(host, frame)| robot_metrics(robots, host, frame))
             .collect();
+        let cloud_bytes: u64 = robots_metrics
+            .iter()
+            .filter_map(|r| r.bytes_sent_by_kind.get("cloud"))
+            .sum();
+        let accepted: usize = robots_metrics.iter().map(|r| r.loops.accepted_inter).sum();
         Self {
             name: name.to_owned(),
+            robots_in_alpha_frame: robots_metrics.iter().filter(|r| r.alignment.is_some()).count(),
+            cloud_bytes_per_inter_loop: (accepted > 0).then(|| cloud_bytes as f64 / accepted as f64),
             inter_robot_candidates: robots_metrics.iter().map(|r| r.loops.candidates_inter).sum(),
             inter_robot_loops_accepted: robots_metrics.iter().map(|r| r.loops.accepted_inter).sum(),
             loops_rejected: robots_metrics.iter().map(|r| r.loops.rejected).sum(),

@@ -132,7 +132,7 @@ impl SingleRobot {
             loop {
                 if Instant::now() >= next_heartbeat {
                     self.say(Message::Heartbeat(self.status()));
-                    self.retry_cloud_requests();
+                    self.loop_upkeep()?;
                     next_heartbeat = Instant::now() + HEARTBEAT_PERIOD;
                 }
                 self.deliver()?;
@@ -203,12 +203,13 @@ impl SingleRobot {
         Ok(())
     }
 
-    /// Sends again the cloud requests that stayed unanswered too long (with the back-off of
-    /// [`RobotHost::due_cloud_requests`]).
-    fn retry_cloud_requests(&mut self) {
+    /// The loop budget's upkeep ([`RobotHost::loop_upkeep`]): expired waits, admissions, and cloud
+    /// requests sent again after staying unanswered too long.
+    fn loop_upkeep(&mut self) -> Result<(), RuntimeError> {
         let robot = &mut self.fleet.robots[0];
-        let again = robot.due_cloud_requests(CLOUD_RETRY_NANOS);
-        send_all(robot, again);
+        let messages = robot.loop_upkeep(&self.fleet.config, CLOUD_RETRY_NANOS)?;
+        send_all(robot, messages);
+        Ok(())
     }
 
     /// This robot's status for `Hello` and `Heartbeat`.

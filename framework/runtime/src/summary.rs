@@ -7,7 +7,7 @@ use skid_core::{Pose, Slot};
 use skid_protocol::CountersSnapshot;
 
 use crate::fleet::Fleet;
-use crate::host::{LoopStats, RobotHost};
+use crate::host::{CloudServing, LoopStats, RobotHost};
 
 /// What one robot did.
 #[derive(Clone, Debug, Serialize)]
@@ -31,6 +31,8 @@ pub struct RobotSummary {
     /// exists (the evaluation crate adds Umeyama-aligned ATE/ARE and the α/β metric).
     pub ate_first_pose_aligned_m: Option<f64>,
     pub messages: CountersSnapshot,
+    /// What the robot did with its peers' requests for its keyframe clouds (each sent once per peer).
+    pub clouds_served: CloudServing,
     /// Messages the transport refused before the protocol saw them (see `Transport::refusals`).
     pub transport_refusals: BTreeMap<String, u64>,
     /// Well-formed peer messages the robot refused, by class (see `peer_faults.rs`).
@@ -122,6 +124,7 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
             .map(|(k, v)| ((*k).to_owned(), *v))
             .collect(),
         loops: host.loop_stats(),
+        clouds_served: host.cloud_serving(),
         estimated_path_length_m: path_length_m,
         ate_first_pose_aligned_m: ate_first_pose_aligned(&trajectory, &truth),
         messages: host.protocol().counters().snapshot(),

@@ -417,4 +417,35 @@ fn a_robot_with_no_link_to_robot_0_joins_its_frame_through_a_third_robot() {
         "{:?}",
         alignment.beta_alignment_error
     );
+    assert!(alignment.joined_after_s.is_some_and(|s| s > 0.0), "{alignment:?}");
+    assert_eq!(metrics.robots_in_alpha_frame, 2);
+    clouds_crossed_each_link_once_and_the_budget_held(&fleet, &summary);
+}
+
+/// On a link that loses nothing, each keyframe cloud crosses each link once (repeated requests are
+/// answered with nothing), and at the end no robot has more candidates waiting than one period's
+/// budget.
+fn clouds_crossed_each_link_once_and_the_budget_held(fleet: &Fleet, summary: &RunSummary) {
+    let budget = fleet.config.loops.inter_robot_budget;
+    for robot in &summary.robots {
+        let sent = robot.messages.sent.get("cloud").map_or(0, |tally| tally.messages);
+        let served = robot.clouds_served;
+        assert_eq!(
+            (sent, served.resent),
+            (served.sent, 0),
+            "robot {} sent {sent} cloud messages: {served:?}",
+            robot.robot
+        );
+        let waiting = robot.loops.queued + robot.loops.awaiting_cloud;
+        assert!(
+            waiting <= budget,
+            "robot {}: {waiting} candidates wait at the end, over the budget of {budget}: {:?}",
+            robot.robot,
+            robot.loops
+        );
+    }
+    assert!(
+        summary.robots.iter().any(|robot| robot.clouds_served.sent > 0),
+        "no cloud was served at all"
+    );
 }

@@ -87,6 +87,7 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
         "ATE m, SE(3)-aligned (% path)",
         "α/β error m / °",
         "loops acc/rej/undecided",
+        "inter cand. raised/verified/expired/waiting",
         "sent",
         "stages s",
     ]);
@@ -113,8 +114,9 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
             format!("{:.1}", robot.estimated_path_length_m),
             or_dash(trajectory.map(|t| format!("{:.3} ({:.2}%)", t.ate_m.rmse, t.ate_percent_of_path))),
             or_dash(measured.alignment.as_ref().map(|a| {
+                let via = a.joined_via.map(|via| format!(" via {via}")).unwrap_or_default();
                 format!(
-                    "{:.3} / {:.2}",
+                    "{:.3} / {:.2}{via}",
                     a.beta_alignment_error.translation_m, a.beta_alignment_error.rotation_deg
                 )
             })),
@@ -123,6 +125,13 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
                 loops.accepted_intra + loops.accepted_inter,
                 loops.rejected,
                 loops.undecided
+            ),
+            format!(
+                "{}/{}/{}/{}",
+                loops.candidates_inter,
+                loops.inter_admitted,
+                loops.expired,
+                loops.queued + loops.awaiting_cloud
             ),
             human_bytes(measured.bytes_sent_total),
             format!("{:.1}", robot.stage_ms.values().sum::<f64>() / 1e3),
@@ -143,6 +152,17 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
         metrics.inter_robot_candidates,
         human_bytes(metrics.bytes_sent_total)
     );
+    if summary.robots.len() > 1 {
+        let _ = writeln!(
+            text,
+            "  in robot 0's frame: {} of {} robots; clouds {} per accepted inter-robot loop",
+            metrics.robots_in_alpha_frame,
+            summary.robots.len() - 1,
+            metrics
+                .cloud_bytes_per_inter_loop
+                .map_or_else(|| "-".to_owned(), |bytes| human_bytes(bytes as u64)),
+        );
+    }
     text.push_str(&table.render());
     for note in notes {
         let _ = writeln!(text, "  note: {note}");

@@ -45,6 +45,9 @@ pub(crate) struct FrameBook {
     sent: BTreeMap<RobotId, Pose>,
     /// Each peer's last report: peer → (robot → peer_first_from_robot_first).
     reported: BTreeMap<RobotId, BTreeMap<RobotId, Pose>>,
+    /// When each robot was first placed in this robot's frame (directly or through others), by the
+    /// host's clock; a robot that left and joined again keeps its first time.
+    first_joined_nanos: BTreeMap<RobotId, u64>,
 }
 
 impl FrameBook {
@@ -88,6 +91,18 @@ impl FrameBook {
     /// Keeps `from`'s report, replacing its previous one.
     pub(crate) fn record_report(&mut self, from: RobotId, frames: BTreeMap<RobotId, Pose>) {
         self.reported.insert(from, frames);
+    }
+
+    /// Notes the robots placed in `me`'s frame now that were never placed before.
+    pub(crate) fn note_joined(&mut self, me: RobotId, now_nanos: u64) {
+        for robot in self.joined(me).into_keys() {
+            self.first_joined_nanos.entry(robot).or_insert(now_nanos);
+        }
+    }
+
+    /// When each robot was first placed in this robot's frame.
+    pub(crate) fn first_joined_nanos(&self) -> &BTreeMap<RobotId, u64> {
+        &self.first_joined_nanos
     }
 
     /// Every robot this robot (`me`) can place: those it merged with directly, then, round by round, the

@@ -9,8 +9,8 @@ use skid_core::{Information, KeyframeId, LoopId, Pose};
 
 /// What became of this robot's loop candidates. Every candidate ends in exactly one outcome, so the
 /// candidates add up: `candidates_intra + candidates_inter` equals `repeated_pair + cloud_missing +
-/// awaiting_cloud + coarse_invalid + coarse_ambiguous + fine_not_converged + accepted_intra +
-/// accepted_inter + rejected + undecided` ([`LoopStats::outcomes`]). The accepted, rejected and undecided counts are the state at the
+/// queued + expired + awaiting_cloud + coarse_invalid + coarse_ambiguous + fine_not_converged +
+/// accepted_intra + accepted_inter + rejected + undecided` ([`LoopStats::outcomes`]). The accepted, rejected and undecided counts are the state at the
 /// time of reading (a loop PCM retracts counts as rejected); the last three fields count events.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct LoopStats {
@@ -20,6 +20,11 @@ pub struct LoopStats {
     pub repeated_pair: usize,
     /// A keyframe's cloud was not held (a peer keyframe whose cloud never came).
     pub cloud_missing: usize,
+    /// Inter-robot candidates still queued for the budget (`loops.inter_robot_budget`).
+    pub queued: usize,
+    /// Inter-robot candidates that waited too long (queued, or for their cloud) or were pushed out of a
+    /// full queue.
+    pub expired: usize,
     /// Inter-robot candidates still waiting for the peer's cloud.
     pub awaiting_cloud: usize,
     /// The coarse registration found no valid alignment.
@@ -36,8 +41,10 @@ pub struct LoopStats {
     pub rejected: usize,
     /// Submitted to the verifier, which has not decided yet (PCM waits for enough loops of a pair).
     pub undecided: usize,
-    /// Events: coarse alignments judged invalid but refined anyway (`loops.refine_invalid_coarse`),
-    /// loops retracted, and accepted loops received from peers.
+    /// Events: inter-robot candidates the budget admitted to registration, coarse alignments judged
+    /// invalid but refined anyway (`loops.refine_invalid_coarse`), loops retracted, and accepted loops
+    /// received from peers.
+    pub inter_admitted: usize,
     pub coarse_invalid_refined: usize,
     pub retracted: usize,
     pub received_from_peers: usize,
@@ -48,6 +55,8 @@ impl LoopStats {
     pub fn outcomes(&self) -> usize {
         self.repeated_pair
             + self.cloud_missing
+            + self.queued
+            + self.expired
             + self.awaiting_cloud
             + self.coarse_invalid
             + self.coarse_ambiguous
@@ -61,6 +70,15 @@ impl LoopStats {
     pub fn candidates(&self) -> usize {
         self.candidates_intra + self.candidates_inter
     }
+}
+
+/// The inter-robot candidates the budget holds, admitted or dropped, as they stand.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct BudgetFigures {
+    pub queued: usize,
+    pub expired: usize,
+    pub admitted: usize,
+    pub awaiting_cloud: usize,
 }
 
 /// Where one of this robot's own loops stands with the verifier.
@@ -222,9 +240,9 @@ impl LoopBook {
         })
     }
 
-    /// The counters with the accepted, rejected and undecided counts as they stand now, and the
-    /// candidates still waiting for a cloud.
-    pub(crate) fn stats(&self, awaiting_cloud: usize) -> LoopStats {
+    /// The counters with the accepted, rejected and undecided counts as they stand now, completed by
+    /// the budget's figures (queued, expired, admitted) and the candidates still waiting for a cloud.
+    pub(crate) fn stats(&self, budget: BudgetFigures) -> LoopStats {
         let mut stats = self.counters.clone();
         for (inter, standing) in self.standing.values() {
             match (standing, inter) {
@@ -234,7 +252,10 @@ impl LoopBook {
                 (LoopStanding::Undecided, _) => stats.undecided += 1,
             }
         }
-        stats.awaiting_cloud = awaiting_cloud;
+        stats.awaiting_cloud = budget.awaiting_cloud;
+        stats.queued = budget.queued;
+        stats.expired = budget.expired;
+        stats.inter_admitted = budget.admitted;
         stats
     }
 }

@@ -49,6 +49,8 @@ impl RobotHost {
             })
             .collect();
         self.frames.set_own(own);
+        let now_nanos = self.now_nanos();
+        self.frames.note_joined(self.robot, now_nanos);
     }
 
     /// A `Frames` message when this robot's frames changed since it last sent them.

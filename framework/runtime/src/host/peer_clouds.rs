@@ -2,7 +2,7 @@
 //! its loop candidates (SKiD-SLAM, Sec. III), so each inter-robot candidate either finds the cloud here
 //! or waits for it; unanswered requests are asked again with a doubling wait.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 
 use skid_core::{Cloud, KeyframeId};
@@ -39,7 +39,11 @@ pub(crate) struct PeerClouds {
     held: HashMap<KeyframeId, Arc<Cloud>>,
     /// Peer keyframes whose cloud was requested and has not arrived.
     requested: BTreeMap<KeyframeId, CloudRequestState>,
-    waiting: Vec<PendingCandidate>,
+    /// Requests whose candidates all expired: not asked again, but their cloud is still taken when it
+    /// comes late (later candidates may want it).
+    given_up: BTreeSet<KeyframeId>,
+    /// Candidates waiting for a cloud, each with when it began to wait.
+    waiting: Vec<(PendingCandidate, u64)>,
 }
 
 impl PeerClouds {
@@ -51,13 +55,19 @@ impl PeerClouds {
         self.held.contains_key(&id)
     }
 
+    /// Whether the cloud of `id` is held or asked for.
+    pub(crate) fn knows(&self, id: KeyframeId) -> bool {
+        self.held.contains_key(&id) || self.requested.contains_key(&id)
+    }
+
     /// Parks a candidate until its target's cloud comes; true when the cloud must be requested now (it
     /// was not requested before).
     pub(crate) fn wait_for(&mut self, candidate: PendingCandidate, now_nanos: u64) -> bool {
-        self.waiting.push(candidate);
+        self.waiting.push((candidate, now_nanos));
         if self.requested.contains_key(&candidate.target) {
             return false;
         }
+        self.given_up.remove(&candidate.target);
         let state = CloudRequestState {
             sent_nanos: now_nanos,
             wait_nanos: 0,
@@ -74,6 +84,33 @@ impl PeerClouds {
     /// Candidates still waiting for a cloud.
     pub(crate) fn waiting(&self) -> usize {
         self.waiting.len()
+    }
+
+    /// Drops the candidates that have waited `expiry_nanos` or longer, and stops asking for clouds no
+    /// candidate waits for any more; returns how many candidates expired.
+    pub(crate) fn expire(&mut self, now_nanos: u64, expiry_nanos: u64) -> usize {
+        let before = self.waiting.len();
+        self.waiting
+            .retain(|&(_, since_nanos)| now_nanos.saturating_sub(since_nanos) < expiry_nanos);
+        let expired = before - self.waiting.len();
+        if expired > 0 {
+            let still_wanted: BTreeSet<KeyframeId> = self
+                .waiting
+                .iter()
+                .map(|(candidate, _)| candidate.target)
+                .collect();
+            let abandoned: Vec<KeyframeId> = self
+                .requested
+                .keys()
+                .filter(|id| !still_wanted.contains(id))
+                .copied()
+                .collect();
+            for id in abandoned {
+                self.requested.remove(&id);
+                self.given_up.insert(id);
+            }
+        }
+        expired
     }
 
     /// Requests unanswered for their wait at `now_nanos`, to send again; each retry doubles the wait,
@@ -95,7 +132,7 @@ impl PeerClouds {
     pub(crate) fn check_wanted(&self, id: KeyframeId) -> Result<(), CloudRefusal> {
         if self.held.contains_key(&id) {
             Err(CloudRefusal::AlreadyHeld)
-        } else if !self.requested.contains_key(&id) {
+        } else if !self.requested.contains_key(&id) && !self.given_up.contains(&id) {
             Err(CloudRefusal::Unrequested)
         } else {
             Ok(())
@@ -106,9 +143,13 @@ impl PeerClouds {
     pub(crate) fn receive(&mut self, id: KeyframeId, cloud: Cloud) -> Vec<PendingCandidate> {
         self.held.insert(id, Arc::new(cloud));
         self.requested.remove(&id);
-        let (ready, still_waiting) = self.waiting.iter().partition(|candidate| candidate.target == id);
+        self.given_up.remove(&id);
+        let (ready, still_waiting): (Vec<_>, Vec<_>) = self
+            .waiting
+            .iter()
+            .partition(|(candidate, _)| candidate.target == id);
         self.waiting = still_waiting;
-        ready
+        ready.into_iter().map(|(candidate, _)| candidate).collect()
     }
 }
 
@@ -154,5 +195,26 @@ mod tests {
             Err(CloudRefusal::AlreadyHeld)
         );
         assert!(clouds.due(1000, period).is_empty());
+    }
+
+    #[test]
+    fn candidates_that_wait_too_long_expire_and_their_late_cloud_is_still_taken() {
+        let mut clouds = PeerClouds::default();
+        let candidate = |target| PendingCandidate {
+            target: keyframe(1, target),
+            source: keyframe(0, 3),
+            yaw_hint_rad: None,
+        };
+        assert!(clouds.wait_for(candidate(7), 0));
+        assert!(clouds.wait_for(candidate(8), 50));
+        assert_eq!(clouds.expire(99, 100), 0);
+        assert_eq!(clouds.expire(100, 100), 1);
+        assert_eq!(clouds.waiting(), 1);
+        // Keyframe 7's request is given up: not asked again, but its cloud is taken when it comes.
+        assert_eq!(clouds.due(1000, 10), vec![keyframe(1, 8)]);
+        assert_eq!(clouds.check_wanted(keyframe(1, 7)), Ok(()));
+        assert!(clouds.receive(keyframe(1, 7), Cloud::new(Vec::new())).is_empty());
+        assert!(clouds.knows(keyframe(1, 7)) && clouds.knows(keyframe(1, 8)));
+        assert!(!clouds.knows(keyframe(1, 9)));
     }
 }

@@ -1,5 +1,5 @@
 //! Acting on the messages a robot receives from its peers (odometry chains, descriptors, cloud requests
-//! and replies, loops), and asking again for clouds that did not come.
+//! and replies, loops).
 
 use skid_config::ResolvedConfig;
 use skid_core::slots::DescriptorBuf;
@@ -9,23 +9,11 @@ use skid_protocol::{CloudMsg, CompressedPoints, Loops, Message, OdomChain, PoseM
 use super::RobotHost;
 use super::peer_clouds::CloudRefusal;
 use crate::error::RuntimeError;
-use crate::messages::{CLOUD_RESOLUTION_M, cloud_request};
 
 /// Most peer loops waiting for keyframes this robot does not have (yet); more are refused.
 const MAX_DEFERRED_LOOPS: usize = 4096;
 
 impl RobotHost {
-    /// Cloud requests unanswered for `period_nanos` by this robot's clock, sent again: the request or the
-    /// reply was lost, or the peer was away. Each retry doubles the wait (up to 16 periods), so replies
-    /// queued on a slow link are not answered by ever more copies. Deterministic in scan time, so the
-    /// executors still agree.
-    pub fn due_cloud_requests(&mut self, period_nanos: u64) -> Vec<Message> {
-        let now_nanos = self.now_nanos();
-        let robot = self.robot();
-        let due = self.peer_clouds.due(now_nanos, period_nanos);
-        due.into_iter().map(|id| cloud_request(robot, id)).collect()
-    }
-
     /// Acts on one message from a peer; messages that do not make sense are logged and dropped.
     pub fn handle_message(
         &mut self,
@@ -90,13 +78,20 @@ impl RobotHost {
                 }
             }
             Message::CloudRequest(request) => {
+                let now_nanos = self.now_nanos();
+                let resend_after_nanos = (config.loops.cloud_resend_after_s * 1e9) as u64;
+                let grid_m = config.loops.cloud_grid_m as f32;
                 for id in request.keyframes.into_iter().filter(|id| id.robot == self.robot) {
                     let Some(keyframe) = self.own.keyframe(id.index) else {
                         continue;
                     };
-                    let Ok(points) =
-                        CompressedPoints::encode(&keyframe.cloud.points, CLOUD_RESOLUTION_M, false)
-                    else {
+                    if !self
+                        .served
+                        .should_send(request.requester, id, now_nanos, resend_after_nanos)
+                    {
+                        continue;
+                    }
+                    let Ok(points) = CompressedPoints::encode(&keyframe.cloud.points, grid_m, false) else {
                         continue;
                     };
                     replies.push((

@@ -10,6 +10,7 @@ use skid_core::slots::{DescriptorBuf, OdometryMeasurement, OptimizeBudget};
 use skid_core::{Keyframe, KeyframeId, PluginError, Pose, Slot};
 
 use super::RobotHost;
+use super::candidate_queue::QueuedCandidate;
 use super::loop_book::LoopEvent;
 use super::own_track::ScanRecord;
 use super::peer_clouds::PendingCandidate;
@@ -246,14 +247,15 @@ impl RobotHost {
                 self.process_candidate(config, pending, outbox)?;
             } else {
                 self.loops.count(LoopEvent::InterCandidate);
-                if self.peer_clouds.holds(candidate.id) {
-                    self.process_candidate(config, pending, outbox)?;
-                } else if self.peer_clouds.wait_for(pending, self.now_nanos()) {
-                    outbox.push(crate::messages::cloud_request(self.robot, candidate.id));
-                }
+                let queued = QueuedCandidate {
+                    candidate: pending,
+                    distance: candidate.distance,
+                    raised_nanos: self.now_nanos(),
+                };
+                self.queue_candidate(config, queued);
             }
         }
-        Ok(())
+        self.admit_candidates(config, outbox)
     }
 
     /// Optimises the back-end's graph, if there is one.

@@ -1,0 +1,116 @@
+//! The host's side of the loop-closure budget: inter-robot candidates are ranked with what the host
+//! knows (which robots are in its frame, which peer clouds it holds or asked for), admitted within the
+//! period's budget, and either registered at once (the cloud is here) or parked until the cloud comes;
+//! on every step the waits that ran out expire and unanswered requests are asked again.
+
+use std::collections::BTreeSet;
+
+use skid_config::ResolvedConfig;
+use skid_core::{KeyframeId, RobotId};
+use skid_protocol::Message;
+
+use super::RobotHost;
+use super::candidate_queue::{Budget, CandidateRanking};
+use super::frame_book::FrameBook;
+use super::peer_clouds::PeerClouds;
+use crate::error::RuntimeError;
+use crate::messages::cloud_request;
+
+/// Nanoseconds in a second of robot time.
+const NANOS_PER_S: f64 = 1e9;
+
+/// The budget `[loops]` sets.
+pub(crate) fn budget(config: &ResolvedConfig) -> Budget {
+    let loops = &config.loops;
+    Budget {
+        per_period: loops.inter_robot_budget,
+        period_nanos: (loops.budget_period_s * NANOS_PER_S) as u64,
+        expiry_nanos: (loops.candidate_expiry_s * NANOS_PER_S) as u64,
+        capacity: loops.candidate_queue,
+    }
+}
+
+/// What ranks candidates: the robots in this robot's frame (itself included) and the peer clouds.
+pub(crate) struct HostRanking<'a> {
+    in_frame: BTreeSet<RobotId>,
+    clouds: &'a PeerClouds,
+}
+
+impl CandidateRanking for HostRanking<'_> {
+    fn in_frame(&self, robot: RobotId) -> bool {
+        self.in_frame.contains(&robot)
+    }
+
+    fn cloud_known(&self, keyframe: KeyframeId) -> bool {
+        self.clouds.knows(keyframe)
+    }
+}
+
+impl<'a> HostRanking<'a> {
+    /// The ranking as `me` knows it now.
+    fn new(me: RobotId, frames: &FrameBook, clouds: &'a PeerClouds) -> Self {
+        let mut in_frame: BTreeSet<RobotId> = frames.joined(me).into_keys().collect();
+        in_frame.insert(me);
+        Self { in_frame, clouds }
+    }
+}
+
+impl RobotHost {
+    /// Queues an inter-robot candidate for the budget.
+    pub(crate) fn queue_candidate(
+        &mut self,
+        config: &ResolvedConfig,
+        queued: super::candidate_queue::QueuedCandidate,
+    ) {
+        let budget = budget(config);
+        let ranking = HostRanking::new(self.robot, &self.frames, &self.peer_clouds);
+        self.candidates.push(queued, &budget, &ranking);
+    }
+
+    /// Admits what the budget allows: candidates whose cloud is here are registered now, the others
+    /// wait for it (and the cloud is asked for once).
+    pub(crate) fn admit_candidates(
+        &mut self,
+        config: &ResolvedConfig,
+        outbox: &mut Vec<Message>,
+    ) -> Result<(), RuntimeError> {
+        if self.candidates.len() == 0 {
+            return Ok(());
+        }
+        let now_nanos = self.now_nanos();
+        let budget = budget(config);
+        let waiting = self.peer_clouds.waiting();
+        let ranking = HostRanking::new(self.robot, &self.frames, &self.peer_clouds);
+        let admitted = self.candidates.admit(now_nanos, waiting, &budget, &ranking);
+        for pending in admitted {
+            if self.peer_clouds.holds(pending.target) {
+                self.process_candidate(config, pending, outbox)?;
+            } else if self.peer_clouds.wait_for(pending, now_nanos) {
+                outbox.push(cloud_request(self.robot, pending.target));
+            }
+        }
+        Ok(())
+    }
+
+    /// The budget's upkeep, on every step and while the executor drains the links: waits that ran out
+    /// expire, the budget admits what it allows, and cloud requests unanswered for `retry_nanos` by this
+    /// robot's clock are sent again (the request or the reply was lost, or the peer was away). Each
+    /// retry doubles the wait (up to 16 periods), so replies queued on a slow link are not answered by
+    /// ever more copies. Deterministic in scan time, so the executors still agree.
+    pub fn loop_upkeep(
+        &mut self,
+        config: &ResolvedConfig,
+        retry_nanos: u64,
+    ) -> Result<Vec<Message>, RuntimeError> {
+        let now_nanos = self.now_nanos();
+        let expiry_nanos = budget(config).expiry_nanos;
+        let expired = self.peer_clouds.expire(now_nanos, expiry_nanos);
+        self.candidates.count_expired(expired);
+        let mut outbox = Vec::new();
+        self.admit_candidates(config, &mut outbox)?;
+        let robot = self.robot;
+        let due = self.peer_clouds.due(now_nanos, retry_nanos);
+        outbox.extend(due.into_iter().map(|id| cloud_request(robot, id)));
+        Ok(outbox)
+    }
+}
