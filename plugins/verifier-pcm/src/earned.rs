@@ -80,14 +80,16 @@ pub(crate) fn judge(
     contradiction(rule, loops, members, graph)
 }
 
-/// The first third robot whose frame disagrees with most of the members, at each member's place.
-fn contradiction(
-    rule: &GrantRule,
+/// Where each member puts robot b against where each frame through a third robot puts it: per third
+/// robot, the (metres, radians) between the two at every member's place.
+fn offsets_through_others(
     loops: &[PcmLoop],
     members: &[usize],
     graph: &dyn GraphView,
-) -> Option<Withheld> {
-    let first = loops.get(*members.first()?)?;
+) -> Vec<(RobotId, Vec<(f64, f64)>)> {
+    let Some(first) = members.first().and_then(|&k| loops.get(k)) else {
+        return Vec::new();
+    };
     let (a, b) = (first.target.robot, first.source.robot);
     let start = |robot| KeyframeId { robot, index: 0 };
     // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b.
@@ -106,22 +108,39 @@ fn contradiction(
         })
         .collect();
     if placed.is_empty() {
-        return None;
+        return Vec::new();
     }
-    for (via, through) in graph.frames_through_others(a, b) {
-        let mut offsets: Vec<(f64, f64)> = placed
-            .iter()
-            .map(|(frame, b_first_from_source)| {
-                let by_loop = frame * b_first_from_source;
-                let by_cycle = through * b_first_from_source;
-                let change = by_loop.inverse() * by_cycle;
-                (change.translation.vector.norm(), change.rotation.angle())
-            })
-            .collect();
-        let disagreeing = offsets
-            .iter()
-            .filter(|(m, rad)| *m > rule.cycle_tolerance_m || *rad > rule.cycle_tolerance_rad)
-            .count();
+    graph
+        .frames_through_others(a, b)
+        .into_iter()
+        .map(|(via, through)| {
+            let offsets = placed
+                .iter()
+                .map(|(frame, b_first_from_source)| {
+                    let by_loop = frame * b_first_from_source;
+                    let by_cycle = through * b_first_from_source;
+                    let change = by_loop.inverse() * by_cycle;
+                    (change.translation.vector.norm(), change.rotation.angle())
+                })
+                .collect();
+            (via, offsets)
+        })
+        .collect()
+}
+
+fn disagrees(rule: &GrantRule, (off_m, off_rad): (f64, f64)) -> bool {
+    off_m > rule.cycle_tolerance_m || off_rad > rule.cycle_tolerance_rad
+}
+
+/// The first third robot whose frame disagrees with most of the members, at each member's place.
+fn contradiction(
+    rule: &GrantRule,
+    loops: &[PcmLoop],
+    members: &[usize],
+    graph: &dyn GraphView,
+) -> Option<Withheld> {
+    for (via, mut offsets) in offsets_through_others(loops, members, graph) {
+        let disagreeing = offsets.iter().filter(|&&offset| disagrees(rule, offset)).count();
         if 2 * disagreeing > offsets.len() {
             offsets.sort_by(|x, y| x.0.total_cmp(&y.0));
             let (off_m, off_rad) = offsets[offsets.len() / 2];
@@ -133,6 +152,21 @@ fn contradiction(
         }
     }
     None
+}
+
+/// Whether the frame of robot b is already known through a third robot and every member agrees with
+/// every such frame: the cycle then stands as the evidence PCM otherwise waits for more loops to give.
+pub(crate) fn agrees_with_cycle(
+    rule: &GrantRule,
+    loops: &[PcmLoop],
+    members: &[usize],
+    graph: &dyn GraphView,
+) -> bool {
+    let through = offsets_through_others(loops, members, graph);
+    !through.is_empty()
+        && through.iter().all(|(_, offsets)| {
+            offsets.len() == members.len() && offsets.iter().all(|&offset| !disagrees(rule, offset))
+        })
 }
 
 /// The largest distance between two of the keyframes (all of one robot), from the graph's poses; the

@@ -26,7 +26,7 @@ use skid_core::{LoopId, RobotId};
 use crate::clique::{Graph, extend_greedily, heuristic_clique, max_clique, max_clique_within};
 use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::dense::consistent_core;
-use crate::earned::{GrantRule, Withheld, judge};
+use crate::earned::{GrantRule, Withheld, agrees_with_cycle, judge};
 use crate::lie::chi2_quantile;
 
 /// Parameters of PCM.
@@ -61,6 +61,11 @@ pub struct PcmParams {
     /// set is not granted ([`crate::earned`]).
     pub cycle_tolerance_m: f64,
     pub cycle_tolerance_deg: f64,
+    /// An inter-robot group whose frame is already known through a third robot decides once it holds
+    /// this many loops, instead of `min_loops_before_decision`, when every one of them agrees with that
+    /// frame (the cycle test above): the cycle is the evidence the extra loops would give. The pairwise
+    /// test and the grant rules are unchanged. 0 turns it off.
+    pub min_loops_with_cycle: usize,
 }
 
 impl Default for PcmParams {
@@ -75,6 +80,7 @@ impl Default for PcmParams {
             dominance_ratio: 2.0,
             cycle_tolerance_m: 5.0,
             cycle_tolerance_deg: 10.0,
+            min_loops_with_cycle: 2,
         }
     }
 }
@@ -249,7 +255,12 @@ impl Pcm {
         }
         group.loops.push(pcm_loop);
         let before: BTreeSet<usize> = group.granted().iter().copied().collect();
-        if group.loops.len() < self.params.min_loops_before_decision.max(1) {
+        let members: Vec<usize> = (0..group.loops.len()).collect();
+        let early = !intra
+            && self.params.min_loops_with_cycle > 0
+            && group.loops.len() >= self.params.min_loops_with_cycle
+            && agrees_with_cycle(&self.params.grant_rule(), &group.loops, &members, graph);
+        if group.loops.len() < self.params.min_loops_before_decision.max(1) && !early {
             return Ok(PcmUpdate {
                 pending: true,
                 group_size: group.loops.len(),
@@ -566,6 +577,53 @@ mod tests {
         let (accepted, retracted) = pcm.reconsider(&CurvesWithThirdRobot(nearly));
         assert_eq!(accepted, vec![LoopId(1), LoopId(2), LoopId(3), LoopId(4)]);
         assert!(retracted.is_empty());
+    }
+
+    #[test]
+    fn a_pair_whose_frame_a_third_robot_confirms_is_decided_with_fewer_loops() {
+        let params = PcmParams {
+            min_loops_before_decision: 5,
+            ..PcmParams::default()
+        };
+        let k = KeyframeId::new;
+        // Two true loops, 8 m apart on each robot, with robot 2 placing robot 1 where it truly is.
+        let mut pcm = Pcm::new(params.clone()).unwrap();
+        let confirmed = CurvesWithThirdRobot(Pose::identity());
+        let first = pcm
+            .add(pcm_loop(1, k(0, 2), k(1, 2), Pose::identity()), &confirmed)
+            .unwrap();
+        assert!(first.pending, "one loop never decides: {first:?}");
+        pcm.add(pcm_loop(2, k(0, 10), k(1, 10), Pose::identity()), &confirmed)
+            .unwrap();
+        assert_eq!(pcm.accepted(), vec![LoopId(1), LoopId(2)]);
+        // Without a third robot, or with one that places robot 1 elsewhere, the pair waits for five.
+        for graph in [
+            &Curves as &dyn GraphView,
+            &CurvesWithThirdRobot(Pose::new(Vector3::new(30.0, 0.0, 0.0), Vector3::zeros())),
+        ] {
+            let mut pcm = Pcm::new(params.clone()).unwrap();
+            for (id, index) in [(1, 2), (2, 10)] {
+                let update = pcm
+                    .add(pcm_loop(id, k(0, index), k(1, index), Pose::identity()), graph)
+                    .unwrap();
+                assert!(update.pending, "{update:?}");
+            }
+            assert!(pcm.accepted().is_empty());
+        }
+        // Off by default where it is asked to be.
+        let mut pcm = Pcm::new(PcmParams {
+            min_loops_with_cycle: 0,
+            ..params
+        })
+        .unwrap();
+        for (id, index) in [(1, 2), (2, 10)] {
+            pcm.add(
+                pcm_loop(id, k(0, index), k(1, index), Pose::identity()),
+                &confirmed,
+            )
+            .unwrap();
+        }
+        assert!(pcm.accepted().is_empty());
     }
 
     #[test]
