@@ -21,6 +21,9 @@ pub struct FleetCase {
     /// Scans per robot (10 Hz).
     pub max_scans: u64,
     pub route_length_m: f64,
+    /// More `--set` overrides for this fleet only, after the profile's own.
+    #[serde(default)]
+    pub sets: Vec<String>,
 }
 
 /// A long mission.
@@ -67,6 +70,7 @@ impl Default for ScaleSettings {
             robots,
             max_scans,
             route_length_m,
+            sets: Vec::new(),
         };
         Self {
             fleets: vec![

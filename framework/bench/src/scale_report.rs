@@ -48,7 +48,20 @@ pub struct FleetRow {
     pub ate_beta_mean_m: Option<f64>,
     pub ate_beta_max_m: Option<f64>,
     pub betas_placed: usize,
+    /// Robots α placed more than 2 m or 5° from where they are (false merges).
+    pub betas_placed_falsely: usize,
+    /// The largest frame error of a placed robot, metres and degrees.
+    pub frame_error_max: Option<(f64, f64)>,
+    /// Inter-robot candidates over the fleet: raised, admitted by the budget, expired, and still
+    /// waiting (queued or for a cloud) at the end.
+    pub candidates: [usize; 4],
+    /// Keyframe-cloud bytes sent per accepted inter-robot loop.
+    pub cloud_bytes_per_inter_loop: Option<f64>,
 }
+
+/// A false merge: a robot placed more than 2 m or 5° from the truth.
+pub const FALSE_MERGE_M: f64 = 2.0;
+pub const FALSE_MERGE_DEG: f64 = 5.0;
 
 /// The fleet row of a finished run.
 pub fn fleet_row(run: &ScaleRun) -> FleetRow {
@@ -78,6 +91,20 @@ pub fn fleet_row(run: &ScaleRun) -> FleetRow {
         .skip(1)
         .filter_map(|r| r.alignment.as_ref().map(|a| a.beta_in_alpha_ate_m.rmse))
         .collect();
+    let frame_errors: Vec<(f64, f64)> = run
+        .metrics
+        .robots
+        .iter()
+        .skip(1)
+        .filter_map(|r| {
+            r.alignment.as_ref().map(|a| {
+                (
+                    a.beta_alignment_error.translation_m,
+                    a.beta_alignment_error.rotation_deg,
+                )
+            })
+        })
+        .collect();
     FleetRow {
         robots: robots.len(),
         scans_per_robot: robots.first().map_or(0, |r| r.scans),
@@ -97,6 +124,24 @@ pub fn fleet_row(run: &ScaleRun) -> FleetRow {
         ate_beta_mean_m: (!betas.is_empty()).then(|| betas.iter().sum::<f64>() / betas.len() as f64),
         ate_beta_max_m: betas.iter().copied().reduce(f64::max),
         betas_placed: betas.len(),
+        betas_placed_falsely: frame_errors
+            .iter()
+            .filter(|(m, deg)| *m > FALSE_MERGE_M || *deg > FALSE_MERGE_DEG)
+            .count(),
+        frame_error_max: frame_errors
+            .iter()
+            .copied()
+            .reduce(|a, b| (a.0.max(b.0), a.1.max(b.1))),
+        candidates: robots.iter().fold([0; 4], |sum, r| {
+            let loops = &r.loops;
+            [
+                sum[0] + loops.candidates_inter,
+                sum[1] + loops.inter_admitted,
+                sum[2] + loops.expired,
+                sum[3] + loops.queued + loops.awaiting_cloud,
+            ]
+        }),
+        cloud_bytes_per_inter_loop: run.metrics.cloud_bytes_per_inter_loop,
     }
 }
 
@@ -158,6 +203,10 @@ pub fn fleet_markdown(rows: &[FleetRow], out: &Path) -> Result<String> {
         "loops inter/intra",
         "ATE α m",
         "α/β mean / max m",
+        "in α's frame (false²)",
+        "largest frame error m / °",
+        "inter cand. raised/verified/expired/waiting",
+        "cloud KB per inter loop",
     ]
     .map(str::to_owned)
     .to_vec();
@@ -198,6 +247,19 @@ pub fn fleet_markdown(rows: &[FleetRow], out: &Path) -> Result<String> {
                     cell(row.ate_beta_max_m, 3),
                     row.betas_placed
                 ),
+                format!(
+                    "{} of {} ({})",
+                    row.betas_placed,
+                    row.robots.saturating_sub(1),
+                    row.betas_placed_falsely
+                ),
+                row.frame_error_max
+                    .map_or_else(|| "–".to_owned(), |(m, deg)| format!("{m:.2} / {deg:.2}")),
+                format!(
+                    "{}/{}/{}/{}",
+                    row.candidates[0], row.candidates[1], row.candidates[2], row.candidates[3]
+                ),
+                cell(row.cloud_bytes_per_inter_loop.map(|bytes| bytes / 1e3), 1),
             ]
         })
         .collect();
@@ -205,7 +267,8 @@ pub fn fleet_markdown(rows: &[FleetRow], out: &Path) -> Result<String> {
     text.push_str(
         "\n¹ Per robot-scan, as the hosts clock each stage (wall time inside the stage; with the `threads` \
          executor the robots' front-ends share the machine's cores, so a stage's time includes waiting for \
-         one). The CPU column is the process's own CPU time (every thread) per robot-scan.\n",
+         one). The CPU column is the process's own CPU time (every thread) per robot-scan.\n\
+         ² Placed more than 2 m or 5° from the truth: a false merge.\n",
     );
     let per_n = |value: &dyn Fn(&FleetRow) -> f64| -> Vec<(f64, f64)> {
         rows.iter().map(|row| (row.robots as f64, value(row))).collect()

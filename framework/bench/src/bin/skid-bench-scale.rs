@@ -18,6 +18,7 @@ fn main() -> anyhow::Result<()> {
                 format!("run.max_scans={}", case.max_scans),
                 format!("source.sim.route_length_m={}", case.route_length_m),
             ]);
+            sets.extend(case.sets.iter().cloned());
             let run = run_fleet(&format!("fleet{}", case.robots), sets, &registry, out)?;
             let row = fleet_row(&run);
             eprintln!(

@@ -18,17 +18,30 @@ use skid_core::{Cloud, Params, PluginContext, Pose, Registry};
 use skid_eval::registration::{RegistrationPair, RegistrationThresholds, registration_stats};
 
 /// Every method name the registration profiles know.
-pub const METHOD_NAMES: [&str; 9] = [
+pub const METHOD_NAMES: [&str; 10] = [
     "ICP",
     "PLANE-ICP",
     "GICP",
     "V-GICP",
     "KISS-Matcher",
     "KISS-Matcher + GICP",
+    PEER_CLOUD_METHOD,
     "RANSAC",
     "RANSAC + GICP",
     "GICP (identity)",
 ];
+
+/// SKiD's default pair on the target cloud as a peer receives it: quantised to `loops.cloud_grid_m`
+/// (the runtime's default) and decoded, as every inter-robot candidate's cloud travels.
+pub const PEER_CLOUD_METHOD: &str = "KISS-Matcher + GICP (peer cloud)";
+
+/// `cloud` as a peer receives it: through the wire's quantisation at the runtime's default grid.
+pub fn as_peer_receives(cloud: &Cloud) -> Result<Cloud> {
+    let grid_m = skid_config::LoopsSection::default().cloud_grid_m as f32;
+    let finite: Vec<_> = cloud.points.iter().filter(|p| p.is_finite()).copied().collect();
+    let packed = skid_protocol::CompressedPoints::encode(&finite, grid_m, false)?;
+    Ok(Cloud::new(packed.decode()?))
+}
 
 /// One summary row: a method on a set of pairs.
 #[derive(Serialize)]
@@ -96,6 +109,10 @@ impl Methods {
             "V-GICP" => fine(self.vgicp.as_mut(), target, source, prior),
             "KISS-Matcher" => coarse(self.kiss.as_mut(), target, source),
             "KISS-Matcher + GICP" => coarse_fine(self.kiss.as_mut(), self.gicp.as_mut(), target, source),
+            PEER_CLOUD_METHOD => {
+                let received = as_peer_receives(target)?;
+                coarse_fine(self.kiss.as_mut(), self.gicp.as_mut(), &received, source)
+            }
             "RANSAC" => coarse(self.ransac.as_mut(), target, source),
             "RANSAC + GICP" => coarse_fine(self.ransac.as_mut(), self.gicp.as_mut(), target, source),
             "GICP (identity)" => fine(self.gicp.as_mut(), target, source, &Pose::identity()),
