@@ -17,6 +17,8 @@
 use serde::{Deserialize, Serialize};
 use skid_core::Point;
 
+use crate::packed::PackedPoints;
+
 /// Why a payload could not be encoded or decoded.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum CodecError {
@@ -52,7 +54,7 @@ pub const MAX_RESOLUTION_M: f32 = 100.0;
 
 /// A quantised, delta-coded point cloud.
 ///
-/// On the wire it travels packed (see [`crate::packed`]): postcard's bytes compressed by zstd.
+/// On the wire it travels packed (see the `packed` module): postcard's bytes compressed by zstd.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(
     into = "crate::packed::PackedPoints",
@@ -188,6 +190,42 @@ impl CompressedPoints {
                 intensity,
             ));
         }
+        Ok(points)
+    }
+}
+
+/// A cloud's fields as postcard writes them before packing.
+#[derive(Serialize, Deserialize)]
+struct PlainPoints {
+    resolution_m: f32,
+    deltas: Vec<i32>,
+    intensity_codes: Vec<u8>,
+    intensity_max: f32,
+}
+
+impl From<CompressedPoints> for PackedPoints {
+    fn from(points: CompressedPoints) -> Self {
+        PackedPoints::pack(&PlainPoints {
+            resolution_m: points.resolution_m,
+            deltas: points.deltas,
+            intensity_codes: points.intensity_codes,
+            intensity_max: points.intensity_max,
+        })
+    }
+}
+
+impl TryFrom<PackedPoints> for CompressedPoints {
+    type Error = CodecError;
+
+    fn try_from(packed: PackedPoints) -> Result<Self, CodecError> {
+        let plain: PlainPoints = packed.unpack().map_err(CodecError::Unpack)?;
+        let points = Self {
+            resolution_m: plain.resolution_m,
+            deltas: plain.deltas,
+            intensity_codes: plain.intensity_codes,
+            intensity_max: plain.intensity_max,
+        };
+        points.validate()?;
         Ok(points)
     }
 }
