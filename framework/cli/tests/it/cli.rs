@@ -191,6 +191,8 @@ fn run_writes_trajectories_and_a_summary() {
         let outcomes: u64 = [
             "repeated_pair",
             "cloud_missing",
+            "queued",
+            "expired",
             "awaiting_cloud",
             "coarse_invalid",
             "coarse_ambiguous",
