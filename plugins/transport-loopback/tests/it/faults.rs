@@ -191,7 +191,7 @@ fn malformed_and_oversized_messages_from_a_peer_are_refused() {
         }))
         .unwrap();
     let mut oversized = b"SKiD".to_vec();
-    oversized.extend_from_slice(&[1, 7, 0, 0, 3, 0xff, 0xff, 0xff, 0xff, 0x0f]);
+    oversized.extend_from_slice(&[PROTOCOL_VERSION as u8, 7, 0, 0, 3, 0xff, 0xff, 0xff, 0xff, 0x0f]);
     let mut wrong_version = valid.clone();
     wrong_version[4] = 9;
     let impostor = ProtocolEndpoint::new(RobotId(0), 5, ProtocolConfig::default())
