@@ -14,6 +14,11 @@ pub const CLOUD_RETRY_PERIOD: Duration = Duration::from_secs(2);
 /// [`CLOUD_RETRY_PERIOD`] in nanoseconds.
 pub(crate) const CLOUD_RETRY_NANOS: u64 = CLOUD_RETRY_PERIOD.as_nanos() as u64;
 
+/// `seconds` of the host's time in nanoseconds (negative and NaN become 0).
+pub(crate) fn nanos_from_s(seconds: f64) -> u64 {
+    (seconds * 1e9) as u64
+}
+
 /// The time a host keeps, in nanoseconds.
 #[derive(Clone, Copy, Debug)]
 pub enum HostClock {

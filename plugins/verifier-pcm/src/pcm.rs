@@ -255,12 +255,16 @@ impl Pcm {
         }
         group.loops.push(pcm_loop);
         let before: BTreeSet<usize> = group.granted().iter().copied().collect();
-        let members: Vec<usize> = (0..group.loops.len()).collect();
-        let early = !intra
-            && self.params.min_loops_with_cycle > 0
-            && group.loops.len() >= self.params.min_loops_with_cycle
-            && agrees_with_cycle(&self.params.grant_rule(), &group.loops, &members, graph);
-        if group.loops.len() < self.params.min_loops_before_decision.max(1) && !early {
+        // The cycle is only asked about while the group would otherwise still wait.
+        let waits = group.loops.len() < self.params.min_loops_before_decision.max(1);
+        let early = || {
+            let members: Vec<usize> = (0..group.loops.len()).collect();
+            !intra
+                && self.params.min_loops_with_cycle > 0
+                && group.loops.len() >= self.params.min_loops_with_cycle
+                && agrees_with_cycle(&self.params.grant_rule(), &group.loops, &members, graph)
+        };
+        if waits && !early() {
             return Ok(PcmUpdate {
                 pending: true,
                 group_size: group.loops.len(),

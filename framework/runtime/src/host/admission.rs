@@ -13,19 +13,17 @@ use super::RobotHost;
 use super::candidate_queue::{Budget, CandidateRanking};
 use super::frame_book::FrameBook;
 use super::peer_clouds::PeerClouds;
+use crate::clock::nanos_from_s;
 use crate::error::RuntimeError;
 use crate::messages::cloud_request;
-
-/// Nanoseconds in a second of robot time.
-const NANOS_PER_S: f64 = 1e9;
 
 /// The budget `[loops]` sets.
 pub(crate) fn budget(config: &ResolvedConfig) -> Budget {
     let loops = &config.loops;
     Budget {
         per_period: loops.inter_robot_budget,
-        period_nanos: (loops.budget_period_s * NANOS_PER_S) as u64,
-        expiry_nanos: (loops.candidate_expiry_s * NANOS_PER_S) as u64,
+        period_nanos: nanos_from_s(loops.budget_period_s),
+        expiry_nanos: nanos_from_s(loops.candidate_expiry_s),
         capacity: loops.candidate_queue,
     }
 }

@@ -79,7 +79,7 @@ impl RobotHost {
             }
             Message::CloudRequest(request) => {
                 let now_nanos = self.now_nanos();
-                let resend_after_nanos = (config.loops.cloud_resend_after_s * 1e9) as u64;
+                let resend_after_nanos = crate::clock::nanos_from_s(config.loops.cloud_resend_after_s);
                 let grid_m = config.loops.cloud_grid_m as f32;
                 for id in request.keyframes.into_iter().filter(|id| id.robot == self.robot) {
                     let Some(keyframe) = self.own.keyframe(id.index) else {
