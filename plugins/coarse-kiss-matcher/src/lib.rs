@@ -57,23 +57,9 @@ pub struct KissMatcherConfig {
     pub voxel_size_m: f64,
     /// `centroid` (the reference's sampling) or `first_point` of each voxel.
     pub voxel_sampling: VoxelSampling,
-    /// Normal radius as a multiple of v.
-    pub normal_radius_gain: f64,
-    /// FPFH radius as a multiple of v.
-    pub fpfh_radius_gain: f64,
-    /// Fewest points for a normal, and fewest valid-normal neighbours for a keypoint (both including
-    /// the point itself).
-    pub min_normal_neighbours: usize,
-    /// Neighbourhoods with linearity (λ1 − λ2)/λ1 above this get no normal; 1.0 disables the filter.
-    pub linearity_threshold: f64,
-    /// Keep only mutual nearest neighbours in descriptor space.
-    pub mutual_filter: bool,
-    /// Ratio test on squared descriptor distances (nearest / second nearest); 1.0 disables it.
-    pub ratio_test: f64,
-    /// Largest squared descriptor distance of a correspondence.
-    pub max_feature_squared_distance: f64,
-    /// Most correspondences kept (lowest ratio first); 0 keeps all.
-    pub max_correspondences: usize,
+    /// Normals, FPFH descriptors and their matching (`[coarse.kiss_matcher.fpfh]`), radii in multiples
+    /// of v.
+    pub fpfh: front::FpfhConfig<front::KissMatcherDefaults>,
     pub pruning: PruningMode,
     /// Branch-and-bound node budget of the exact maximum clique.
     pub max_clique_node_limit: u64,
@@ -96,14 +82,7 @@ impl Default for KissMatcherConfig {
         Self {
             voxel_size_m: 0.3,
             voxel_sampling: VoxelSampling::Centroid,
-            normal_radius_gain: 3.0,
-            fpfh_radius_gain: 5.0,
-            min_normal_neighbours: 3,
-            linearity_threshold: 1.0,
-            mutual_filter: true,
-            ratio_test: 0.9,
-            max_feature_squared_distance: 900.0,
-            max_correspondences: 5000,
+            fpfh: front::FpfhConfig::default(),
             pruning: PruningMode::MaxCore,
             max_clique_node_limit: 1_000_000,
             pruning_noise_bound_gain: 1.0,
@@ -118,24 +97,10 @@ impl Default for KissMatcherConfig {
 }
 
 impl KissMatcherConfig {
-    /// The settings of the FPFH front, shared with the RANSAC baseline.
-    pub fn front(&self) -> front::FrontSettings {
-        front::FrontSettings {
-            voxel_size_m: self.voxel_size_m,
-            normal_radius_gain: self.normal_radius_gain,
-            fpfh_radius_gain: self.fpfh_radius_gain,
-            min_normal_neighbours: self.min_normal_neighbours,
-            linearity_threshold: self.linearity_threshold,
-            mutual_filter: self.mutual_filter,
-            ratio_test: self.ratio_test,
-            max_feature_squared_distance: self.max_feature_squared_distance,
-            max_correspondences: self.max_correspondences,
-        }
-    }
-
     /// Checks every value; the message names the offending key.
     pub fn validate(&self) -> Result<(), String> {
-        self.front().validate()?;
+        front::check_voxel_size(self.voxel_size_m)?;
+        self.fpfh.validate()?;
         for (value, key) in [
             (self.pruning_noise_bound_gain, "pruning_noise_bound_gain"),
             (self.solver_noise_bound_gain, "solver_noise_bound_gain"),
@@ -175,12 +140,12 @@ impl KissMatcherConfig {
 
     /// The feature-extraction settings in metres.
     pub fn feature_params(&self) -> features::FeatureParams {
-        self.front().feature_params()
+        self.fpfh.feature_params(self.voxel_size_m)
     }
 
     /// The matching settings.
     pub fn match_params(&self) -> matching::MatchParams {
-        self.front().match_params()
+        self.fpfh.match_params()
     }
 }
 

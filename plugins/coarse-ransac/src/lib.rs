@@ -17,7 +17,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use skid_coarse_kiss_matcher::features::{VoxelSampling, compute_features, voxel_sample};
-use skid_coarse_kiss_matcher::front::FrontSettings;
+use skid_coarse_kiss_matcher::front::{BaselineDefaults, FpfhConfig, check_voxel_size};
 use skid_coarse_kiss_matcher::matching::{match_descriptors, matched_points};
 use skid_coarse_kiss_matcher::thread_pool;
 use skid_core::slots::{CoarseAlignment, CoarseRegistration};
@@ -34,22 +34,9 @@ pub const PLUGIN_NAME: &str = "ransac";
 pub struct RansacConfig {
     /// Voxel size v of the sampling, in metres.
     pub voxel_size_m: f64,
-    /// Normal radius as a multiple of v.
-    pub normal_radius_gain: f64,
-    /// FPFH radius as a multiple of v.
-    pub fpfh_radius_gain: f64,
-    /// Fewest points for a normal and valid-normal neighbours for a keypoint (point included).
-    pub min_normal_neighbours: usize,
-    /// Neighbourhoods more linear than this get no normal; 1.0 disables the filter.
-    pub linearity_threshold: f64,
-    /// Keep only mutual nearest neighbours in descriptor space.
-    pub mutual_filter: bool,
-    /// Ratio test on squared descriptor distances; 1.0 disables it.
-    pub ratio_test: f64,
-    /// Largest squared descriptor distance of a correspondence; 0 means no limit.
-    pub max_feature_squared_distance: f64,
-    /// Most correspondences kept (most distinctive first); 0 keeps all.
-    pub max_correspondences: usize,
+    /// Normals, FPFH descriptors and their matching (`[coarse.ransac.fpfh]`), radii in multiples of v;
+    /// KISS-Matcher's front with the baseline's matching defaults.
+    pub fpfh: FpfhConfig<BaselineDefaults>,
     /// Inlier distance as a multiple of v.
     pub inlier_distance_gain: f64,
     /// Edge-length similarity of a drawn triangle between the two clouds.
@@ -66,14 +53,7 @@ impl Default for RansacConfig {
     fn default() -> Self {
         Self {
             voxel_size_m: 0.3,
-            normal_radius_gain: 3.0,
-            fpfh_radius_gain: 5.0,
-            min_normal_neighbours: 3,
-            linearity_threshold: 1.0,
-            mutual_filter: true,
-            ratio_test: 1.0,
-            max_feature_squared_distance: 0.0,
-            max_correspondences: 0,
+            fpfh: FpfhConfig::default(),
             inlier_distance_gain: 1.5,
             edge_length_similarity: 0.9,
             max_iterations: 100_000,
@@ -85,24 +65,10 @@ impl Default for RansacConfig {
 }
 
 impl RansacConfig {
-    /// The settings of the FPFH front, shared with KISS-Matcher.
-    fn front(&self) -> FrontSettings {
-        FrontSettings {
-            voxel_size_m: self.voxel_size_m,
-            normal_radius_gain: self.normal_radius_gain,
-            fpfh_radius_gain: self.fpfh_radius_gain,
-            min_normal_neighbours: self.min_normal_neighbours,
-            linearity_threshold: self.linearity_threshold,
-            mutual_filter: self.mutual_filter,
-            ratio_test: self.ratio_test,
-            max_feature_squared_distance: self.max_feature_squared_distance,
-            max_correspondences: self.max_correspondences,
-        }
-    }
-
     /// Checks every value; the message names the offending key.
     pub fn validate(&self) -> Result<(), String> {
-        self.front().validate()?;
+        check_voxel_size(self.voxel_size_m)?;
+        self.fpfh.validate()?;
         if !(self.inlier_distance_gain.is_finite() && self.inlier_distance_gain > 0.0) {
             return Err(format!(
                 "inlier_distance_gain must be a positive number, got {}",
@@ -229,7 +195,7 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
         || voxel_sample(source, voxel_m, VoxelSampling::Centroid),
     );
     report.points = (target_points.len(), source_points.len());
-    let params = config.front().feature_params();
+    let params = config.fpfh.feature_params(config.voxel_size_m);
     let (target_features, source_features) = rayon::join(
         || compute_features(&target_points, &Vector3::zeros(), &params),
         || compute_features(&source_points, &Vector3::zeros(), &params),
@@ -238,7 +204,7 @@ fn run(config: &RansacConfig, seed: u64, target: CloudView<'_>, source: CloudVie
     let matches = match_descriptors(
         &source_features.descriptors,
         &target_features.descriptors,
-        &config.front().match_params(),
+        &config.fpfh.match_params(),
     );
     report.alignment.correspondence_count = matches.len();
     let needed = config.min_inliers.max(3);

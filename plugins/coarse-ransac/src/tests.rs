@@ -126,6 +126,16 @@ fn registers_with_defaults_and_refuses_bad_parameters() {
             .create(PLUGIN_NAME, &Params::default(), &context())
             .is_ok()
     );
+    // A table that sets one key of the shared front keeps the baseline's own matching defaults.
+    let partial: RansacConfig = Params::from_toml_str("[fpfh]\nnormal_radius_gain = 2.0")
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(partial.fpfh.normal_radius_gain, 2.0);
+    assert_eq!(
+        (partial.fpfh.ratio_test, partial.fpfh.max_correspondences),
+        (1.0, 0)
+    );
     let typo = Params::from_toml_str("max_iteration = 10").unwrap();
     assert!(registry.validate(Slot::Coarse, PLUGIN_NAME, &typo).is_err());
     for bad in [

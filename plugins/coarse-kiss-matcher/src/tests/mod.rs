@@ -9,6 +9,7 @@ use skid_testkit::pose_error;
 use skid_testkit::registration::{RegistrationExpectations, check_coarse};
 
 use super::*;
+use crate::front::FpfhConfig;
 
 mod rival;
 
@@ -178,6 +179,12 @@ fn registers_with_defaults_and_refuses_bad_parameters() {
     );
     let typo = Params::from_toml_str("voxel_size = 0.3").unwrap();
     assert!(registry.validate(Slot::Coarse, PLUGIN_NAME, &typo).is_err());
+    let nested = Params::from_toml_str("[fpfh]\nratio_test = -1.0").unwrap();
+    let error = registry
+        .validate(Slot::Coarse, PLUGIN_NAME, &nested)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("fpfh.ratio_test"), "{error}");
     let mode = Params::from_toml_str("pruning = \"max_clique\"").unwrap();
     assert!(registry.validate(Slot::Coarse, PLUGIN_NAME, &mode).is_ok());
     for bad in [
@@ -190,11 +197,17 @@ fn registers_with_defaults_and_refuses_bad_parameters() {
             ..KissMatcherConfig::default()
         },
         KissMatcherConfig {
-            normal_radius_gain: 6.0,
+            fpfh: FpfhConfig {
+                normal_radius_gain: 6.0,
+                ..FpfhConfig::default()
+            },
             ..KissMatcherConfig::default()
         },
         KissMatcherConfig {
-            ratio_test: f64::NAN,
+            fpfh: FpfhConfig {
+                ratio_test: f64::NAN,
+                ..FpfhConfig::default()
+            },
             ..KissMatcherConfig::default()
         },
     ] {
