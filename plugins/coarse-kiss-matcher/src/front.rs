@@ -8,6 +8,7 @@
 use std::marker::PhantomData;
 
 use serde::{Deserialize, Serialize};
+use skid_core::ParamError;
 
 use crate::features::FeatureParams;
 use crate::matching::MatchParams;
@@ -87,46 +88,56 @@ impl<D: FrontDefaults> Default for FpfhConfig<D> {
     }
 }
 
-/// Refuses a voxel size below 5 mm (or not a number); the message names `voxel_size_m`.
-pub fn check_voxel_size(voxel_size_m: f64) -> Result<(), String> {
+/// Refuses a voxel size below 5 mm (or not a number), as an error at `voxel_size_m`.
+pub fn check_voxel_size(voxel_size_m: f64) -> Result<(), ParamError> {
     if voxel_size_m.is_finite() && voxel_size_m >= 5e-3 {
         Ok(())
     } else {
-        Err(format!("voxel_size_m must be at least 0.005, got {voxel_size_m}"))
+        Err(ParamError::at(
+            "voxel_size_m",
+            format!("must be at least 0.005, got {voxel_size_m}"),
+        ))
     }
 }
 
 impl<D> FpfhConfig<D> {
-    /// Checks every value; the message names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every value; the error's path is the key within this table (the caller places the table).
+    pub fn validate(&self) -> Result<(), ParamError> {
         for (value, key) in [
             (self.normal_radius_gain, "normal_radius_gain"),
             (self.fpfh_radius_gain, "fpfh_radius_gain"),
             (self.ratio_test, "ratio_test"),
         ] {
             if !(value.is_finite() && value > 0.0) {
-                return Err(format!("{key} must be a positive number, got {value}"));
+                return Err(ParamError::at(
+                    key,
+                    format!("must be a positive number, got {value}"),
+                ));
             }
         }
         if self.normal_radius_gain > self.fpfh_radius_gain {
-            return Err(
-                "normal_radius_gain must not exceed fpfh_radius_gain (one search serves both)".into(),
-            );
+            return Err(ParamError::at(
+                "normal_radius_gain",
+                "must not exceed fpfh_radius_gain (one search serves both)",
+            ));
         }
         if !(0.0..=1.0).contains(&self.linearity_threshold) {
-            return Err(format!(
-                "linearity_threshold must lie in [0, 1], got {}",
-                self.linearity_threshold
+            return Err(ParamError::at(
+                "linearity_threshold",
+                format!("must lie in [0, 1], got {}", self.linearity_threshold),
             ));
         }
         if !(self.max_feature_squared_distance.is_finite() && self.max_feature_squared_distance >= 0.0) {
-            return Err(format!(
-                "max_feature_squared_distance must be 0 (no limit) or positive, got {}",
-                self.max_feature_squared_distance
+            return Err(ParamError::at(
+                "max_feature_squared_distance",
+                format!(
+                    "must be 0 (no limit) or positive, got {}",
+                    self.max_feature_squared_distance
+                ),
             ));
         }
         if self.min_normal_neighbours == 0 {
-            return Err("min_normal_neighbours must be at least 1".into());
+            return Err(ParamError::at("min_normal_neighbours", "must be at least 1"));
         }
         Ok(())
     }

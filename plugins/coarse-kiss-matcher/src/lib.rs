@@ -31,7 +31,9 @@ pub mod solver;
 
 use serde::{Deserialize, Serialize};
 use skid_core::slots::{CoarseAlignment, CoarseRegistration};
-use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry};
+use skid_core::{
+    CloudView, ParamError, PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry,
+};
 
 pub use features::VoxelSampling;
 pub use pipeline::{KissMatcherReport, StageTimings};
@@ -97,33 +99,36 @@ impl Default for KissMatcherConfig {
 }
 
 impl KissMatcherConfig {
-    /// Checks every value; the message names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every value; the error names the offending key.
+    pub fn validate(&self) -> Result<(), ParamError> {
         front::check_voxel_size(self.voxel_size_m)?;
-        self.fpfh.validate()?;
+        self.fpfh.validate().map_err(|error| error.in_table("fpfh"))?;
         for (value, key) in [
             (self.pruning_noise_bound_gain, "pruning_noise_bound_gain"),
             (self.solver_noise_bound_gain, "solver_noise_bound_gain"),
             (self.gnc_cost_threshold, "gnc_cost_threshold"),
         ] {
             if !(value.is_finite() && value > 0.0) {
-                return Err(format!("{key} must be a positive number, got {value}"));
+                return Err(ParamError::at(
+                    key,
+                    format!("must be a positive number, got {value}"),
+                ));
             }
         }
         if !(self.max_noise_bound_m.is_finite() && self.max_noise_bound_m >= 0.0) {
-            return Err(format!(
-                "max_noise_bound_m must be 0 or positive, got {}",
-                self.max_noise_bound_m
+            return Err(ParamError::at(
+                "max_noise_bound_m",
+                format!("must be 0 or positive, got {}", self.max_noise_bound_m),
             ));
         }
         if !(self.gnc_factor.is_finite() && self.gnc_factor > 1.0) {
-            return Err(format!(
-                "gnc_factor must be greater than 1, got {}",
-                self.gnc_factor
+            return Err(ParamError::at(
+                "gnc_factor",
+                format!("must be greater than 1, got {}", self.gnc_factor),
             ));
         }
         if self.gnc_max_iterations == 0 {
-            return Err("gnc_max_iterations must be at least 1".into());
+            return Err(ParamError::at("gnc_max_iterations", "must be at least 1"));
         }
         Ok(())
     }
@@ -181,7 +186,7 @@ impl KissMatcher {
     pub fn new(config: KissMatcherConfig, context: &PluginContext) -> PluginResult<Self> {
         config
             .validate()
-            .map_err(|message| PluginError::failed(PLUGIN_NAME, message))?;
+            .map_err(|error| PluginError::failed(PLUGIN_NAME, error.to_string()))?;
         Self::from_checked(config, context)
     }
 
@@ -234,7 +239,7 @@ impl CoarseRegistration for KissMatcher {
 
 impl skid_core::PluginParams for KissMatcherConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
-        self.validate().map_err(skid_core::ParamError::named_in)
+        self.validate()
     }
 }
 

@@ -21,7 +21,9 @@ use skid_coarse_kiss_matcher::front::{BaselineDefaults, FpfhConfig, check_voxel_
 use skid_coarse_kiss_matcher::matching::{match_descriptors, matched_points};
 use skid_coarse_kiss_matcher::thread_pool;
 use skid_core::slots::{CoarseAlignment, CoarseRegistration};
-use skid_core::{CloudView, PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry};
+use skid_core::{
+    CloudView, ParamError, PluginContext, PluginEntry, PluginError, PluginResult, Pose, Registry,
+};
 
 use crate::ransac::{RansacParams, ransac};
 
@@ -65,27 +67,30 @@ impl Default for RansacConfig {
 }
 
 impl RansacConfig {
-    /// Checks every value; the message names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every value; the error names the offending key.
+    pub fn validate(&self) -> Result<(), ParamError> {
         check_voxel_size(self.voxel_size_m)?;
-        self.fpfh.validate()?;
+        self.fpfh.validate().map_err(|error| error.in_table("fpfh"))?;
         if !(self.inlier_distance_gain.is_finite() && self.inlier_distance_gain > 0.0) {
-            return Err(format!(
-                "inlier_distance_gain must be a positive number, got {}",
-                self.inlier_distance_gain
+            return Err(ParamError::at(
+                "inlier_distance_gain",
+                format!("must be a positive number, got {}", self.inlier_distance_gain),
             ));
         }
         if !(0.0..=1.0).contains(&self.edge_length_similarity) {
-            return Err(format!(
-                "edge_length_similarity must lie in [0, 1], got {}",
-                self.edge_length_similarity
+            return Err(ParamError::at(
+                "edge_length_similarity",
+                format!("must lie in [0, 1], got {}", self.edge_length_similarity),
             ));
         }
         if !(self.confidence > 0.0 && self.confidence < 1.0) {
-            return Err(format!("confidence must lie in (0, 1), got {}", self.confidence));
+            return Err(ParamError::at(
+                "confidence",
+                format!("must lie in (0, 1), got {}", self.confidence),
+            ));
         }
         if self.max_iterations == 0 {
-            return Err("max_iterations must be at least 1".into());
+            return Err(ParamError::at("max_iterations", "must be at least 1"));
         }
         Ok(())
     }
@@ -128,7 +133,7 @@ impl RansacMatcher {
     pub fn new(config: RansacConfig, context: &PluginContext) -> PluginResult<Self> {
         config
             .validate()
-            .map_err(|message| PluginError::failed(PLUGIN_NAME, message))?;
+            .map_err(|error| PluginError::failed(PLUGIN_NAME, error.to_string()))?;
         Self::from_checked(config, context)
     }
 
@@ -281,7 +286,7 @@ fn rival_inliers(
 
 impl skid_core::PluginParams for RansacConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
-        self.validate().map_err(skid_core::ParamError::named_in)
+        self.validate()
     }
 }
 

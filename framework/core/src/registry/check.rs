@@ -35,6 +35,16 @@ impl ParamError {
         }
     }
 
+    /// The same error for a key of the nested table `table` (its path gains the table's name).
+    pub fn in_table(mut self, table: &str) -> Self {
+        self.path = if self.path.is_empty() {
+            table.to_owned()
+        } else {
+            format!("{table}.{}", self.path)
+        };
+        self
+    }
+
     /// A message that names its key somewhere in its text (the first key it names is the path).
     pub fn named_in(message: impl Into<String>) -> Self {
         Self::at("", message)
