@@ -17,8 +17,9 @@ pub enum SimError {
     #[error("robot index {index} is out of range for a fleet of {robots} robots")]
     RobotIndex { index: u32, robots: u32 },
 
-    #[error("invalid simulator setting: {0}")]
-    InvalidConfig(String),
+    /// A setting out of its range, at `key` of the simulator's table (empty when no one key is at fault).
+    #[error("invalid simulator setting: {message}")]
+    InvalidConfig { key: &'static str, message: String },
 
     #[error("{}: {source}", path.display())]
     Io { path: PathBuf, source: std::io::Error },
@@ -28,6 +29,25 @@ pub enum SimError {
 }
 
 impl SimError {
+    /// A setting out of its range, at `key`.
+    pub fn invalid(key: &'static str, message: impl Into<String>) -> Self {
+        Self::InvalidConfig {
+            key,
+            message: message.into(),
+        }
+    }
+
+    /// The key of the simulator's table the error is about, when it is about one.
+    pub fn config_key(&self) -> Option<&'static str> {
+        match self {
+            Self::UnknownWorld { .. } => Some("world"),
+            Self::UnknownSensor { .. } => Some("sensor"),
+            Self::RobotCount { .. } => Some("robots"),
+            Self::InvalidConfig { key, .. } if !key.is_empty() => Some(key),
+            _ => None,
+        }
+    }
+
     /// A file error with its path.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Self::Io {

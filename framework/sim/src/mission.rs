@@ -88,10 +88,13 @@ impl FromStr for Mission {
             .into_iter()
             .find(|m| m.name() == name.trim())
             .ok_or_else(|| {
-                SimError::InvalidConfig(format!(
-                    "unknown mission `{name}`; missions: {}",
-                    Self::ALL.map(Mission::name).join(", ")
-                ))
+                SimError::invalid(
+                    "mission",
+                    format!(
+                        "unknown mission `{name}`; missions: {}",
+                        Self::ALL.map(Mission::name).join(", ")
+                    ),
+                )
             })
     }
 }

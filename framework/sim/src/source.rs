@@ -111,19 +111,21 @@ impl SimConfig {
                 max: MAX_ROBOTS,
             });
         }
-        let check = |ok: bool, what: String| {
+        let check = |ok: bool, key: &'static str, what: String| {
             if ok {
                 Ok(())
             } else {
-                Err(SimError::InvalidConfig(what))
+                Err(SimError::invalid(key, what))
             }
         };
         check(
             (0.1..=20.0).contains(&self.speed_mps),
+            "speed_mps",
             format!("speed_mps = {} must be within 0.1–20 m/s", self.speed_mps),
         )?;
         check(
             (50.0..=5000.0).contains(&self.route_length_m),
+            "route_length_m",
             format!(
                 "route_length_m = {} must be within 50–5000 m",
                 self.route_length_m
@@ -131,6 +133,7 @@ impl SimConfig {
         )?;
         check(
             self.range_noise_scale >= 0.0 && self.range_noise_scale.is_finite(),
+            "range_noise_scale",
             format!("range_noise_scale = {} must be ≥ 0", self.range_noise_scale),
         )?;
         for (name, rate) in [
@@ -139,11 +142,13 @@ impl SimConfig {
         ] {
             check(
                 (0.0..=1.0).contains(&rate),
+                name,
                 format!("{name} = {rate} must be within 0–1"),
             )?;
         }
         check(
             self.imu_model.rate_hz >= 10.0 && self.imu_model.rate_hz <= 2000.0,
+            "imu_model.rate_hz",
             format!(
                 "imu_model.rate_hz = {} must be within 10–2000",
                 self.imu_model.rate_hz
@@ -152,6 +157,7 @@ impl SimConfig {
         check(
             self.imu_mount.iter().all(|v| v.is_finite())
                 && self.imu_mount[..3].iter().all(|v| v.abs() <= 2.0),
+            "imu_mount",
             format!(
                 "imu_mount = {:?} must be finite, with a lever arm of at most 2 m per axis",
                 self.imu_mount
@@ -159,6 +165,7 @@ impl SimConfig {
         )?;
         check(
             self.imu_clock_offset_s.abs() <= 1.0,
+            "imu_clock_offset_s",
             format!(
                 "imu_clock_offset_s = {} must be within ±1 s",
                 self.imu_clock_offset_s
@@ -167,6 +174,7 @@ impl SimConfig {
         if let Some(keep_right_m) = self.keep_right_m {
             check(
                 keep_right_m.is_finite() && keep_right_m.abs() <= 3.0,
+                "keep_right_m",
                 format!("keep_right_m = {keep_right_m} must be within ±3 m"),
             )?;
         }
@@ -279,7 +287,7 @@ impl SimSource {
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()
-                    .map_err(|e| SimError::InvalidConfig(format!("thread pool: {e}")))?,
+                    .map_err(|e| SimError::invalid("threads", format!("thread pool: {e}")))?,
             )
         } else {
             None
@@ -436,6 +444,9 @@ impl skid_core::PluginParams for SimConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
         self.validate()
             .map(drop)
-            .map_err(|error| skid_core::ParamError::named_in(error.to_string()))
+            .map_err(|error| match error.config_key() {
+                Some(key) => skid_core::ParamError::at(key, error.to_string()),
+                None => skid_core::ParamError::named_in(error.to_string()),
+            })
     }
 }

@@ -90,7 +90,6 @@ impl skid_core::PluginParams for LoopbackConfig {
             return Err(skid_core::ParamError::at("hub", "the hub name is empty"));
         }
         count_within("max_message_bytes", self.max_message_bytes, 1024, 1 << 30)?;
-        // The link model's messages start with its key; the registry finds it under `link.`.
-        self.link.validate().map_err(skid_core::ParamError::named_in)
+        self.link.validate().map_err(|error| error.in_table("link"))
     }
 }

@@ -8,6 +8,7 @@
 //! latency and loss rise with distance, linearly between the curve's points.
 
 use serde::{Deserialize, Serialize};
+use skid_core::ParamError;
 
 /// Link quality at one distance; the model interpolates linearly between points.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -102,26 +103,32 @@ impl LinkModel {
         }
     }
 
-    /// Checks every value; the message names the offending key.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every value; the error is at the offending key.
+    pub fn validate(&self) -> Result<(), ParamError> {
         let probability = |value: f64, key: &str| {
             if (0.0..=1.0).contains(&value) {
                 Ok(())
             } else {
-                Err(format!("{key} must be a probability in [0, 1], got {value}"))
+                Err(ParamError::at(
+                    key,
+                    format!("must be a probability in [0, 1], got {value}"),
+                ))
             }
         };
         let non_negative = |value: f64, key: &str| {
             if value.is_finite() && value >= 0.0 {
                 Ok(())
             } else {
-                Err(format!("{key} must be finite and non-negative, got {value}"))
+                Err(ParamError::at(
+                    key,
+                    format!("must be finite and non-negative, got {value}"),
+                ))
             }
         };
         if self.bandwidth_bps.is_nan() || self.bandwidth_bps <= 0.0 {
-            return Err(format!(
-                "bandwidth_bps must be positive, got {}",
-                self.bandwidth_bps
+            return Err(ParamError::at(
+                "bandwidth_bps",
+                format!("must be positive, got {}", self.bandwidth_bps),
             ));
         }
         non_negative(self.latency_ms, "latency_ms")?;
@@ -134,21 +141,36 @@ impl LinkModel {
         if let Some(range) = self.max_range_m {
             non_negative(range, "max_range_m")?;
         }
+        // A point of the curve is refused at `range_curve`, the message naming the point and its field.
         let mut previous = f64::NEG_INFINITY;
-        for point in &self.range_curve {
-            non_negative(point.distance_m, "range_curve.distance_m")?;
+        for (i, point) in self.range_curve.iter().enumerate() {
+            let at_point = |problem: String| ParamError::at("range_curve", format!("point {i}: {problem}"));
+            for (value, field) in [
+                (point.distance_m, "distance_m"),
+                (point.extra_latency_ms, "extra_latency_ms"),
+            ] {
+                if !(value.is_finite() && value >= 0.0) {
+                    return Err(at_point(format!(
+                        "{field} must be finite and non-negative, got {value}"
+                    )));
+                }
+            }
             if point.distance_m <= previous {
-                return Err("range_curve distances must increase strictly".into());
+                return Err(at_point("the distances must increase strictly".into()));
             }
             previous = point.distance_m;
             if !(point.bandwidth_factor.is_finite() && point.bandwidth_factor > 0.0) {
-                return Err(format!(
-                    "range_curve.bandwidth_factor must be positive, got {}",
+                return Err(at_point(format!(
+                    "bandwidth_factor must be positive, got {}",
                     point.bandwidth_factor
-                ));
+                )));
             }
-            non_negative(point.extra_latency_ms, "range_curve.extra_latency_ms")?;
-            probability(point.extra_loss, "range_curve.extra_loss")?;
+            if !(0.0..=1.0).contains(&point.extra_loss) {
+                return Err(at_point(format!(
+                    "extra_loss must be a probability in [0, 1], got {}",
+                    point.extra_loss
+                )));
+            }
         }
         Ok(())
     }

@@ -25,7 +25,7 @@
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
-use skid_core::{Point, Pose};
+use skid_core::{ParamError, Point, Pose};
 use skid_geometry::voxel_downsample;
 
 /// Parameters of the truncated-MSE check.
@@ -69,20 +69,28 @@ pub struct Fitness {
 }
 
 impl FitnessConfig {
-    /// Checks that every value is usable.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks that every value is usable; the error is at the offending key.
+    pub fn validate(&self) -> Result<(), ParamError> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !positive(self.max_correspondence_m) || !positive(self.max_truncated_mse_m2) {
-            return Err("max_correspondence_m and max_truncated_mse_m2 must be positive".into());
+        for (value, key) in [
+            (self.max_correspondence_m, "max_correspondence_m"),
+            (self.max_truncated_mse_m2, "max_truncated_mse_m2"),
+        ] {
+            if !positive(value) {
+                return Err(ParamError::at(key, format!("must be positive, got {value}")));
+            }
         }
         if !(0.0..=1.0).contains(&self.min_overlap) {
-            return Err(format!(
-                "min_overlap must lie in [0, 1], got {}",
-                self.min_overlap
+            return Err(ParamError::at(
+                "min_overlap",
+                format!("must lie in [0, 1], got {}", self.min_overlap),
             ));
         }
         if !(self.source_voxel_m.is_finite() && self.source_voxel_m >= 0.0) {
-            return Err("source_voxel_m must be finite and not negative".into());
+            return Err(ParamError::at(
+                "source_voxel_m",
+                format!("must be finite and not negative, got {}", self.source_voxel_m),
+            ));
         }
         Ok(())
     }

@@ -21,7 +21,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
 use skid_core::slots::GraphView;
-use skid_core::{LoopId, RobotId};
+use skid_core::{LoopId, ParamError, RobotId};
 
 use crate::clique::{Graph, extend_greedily, heuristic_clique, max_clique, max_clique_within};
 use crate::consistency::{PcmLoop, squared_mahalanobis};
@@ -86,18 +86,18 @@ impl Default for PcmParams {
 }
 
 impl PcmParams {
-    /// Checks that every value is usable.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks that every value is usable; the error is at the offending key.
+    pub fn validate(&self) -> Result<(), ParamError> {
         if !(self.consistency_probability > 0.0 && self.consistency_probability < 1.0) {
-            return Err(format!(
-                "consistency_probability must lie in (0, 1), got {}",
-                self.consistency_probability
+            return Err(ParamError::at(
+                "consistency_probability",
+                format!("must lie in (0, 1), got {}", self.consistency_probability),
             ));
         }
         if !(self.min_consistent_fraction > 0.0 && self.min_consistent_fraction <= 1.0) {
-            return Err(format!(
-                "min_consistent_fraction must lie in (0, 1], got {}",
-                self.min_consistent_fraction
+            return Err(ParamError::at(
+                "min_consistent_fraction",
+                format!("must lie in (0, 1], got {}", self.min_consistent_fraction),
             ));
         }
         for (value, key) in [
@@ -107,7 +107,10 @@ impl PcmParams {
             (self.cycle_tolerance_deg, "cycle_tolerance_deg"),
         ] {
             if !(value.is_finite() && value >= 0.0) {
-                return Err(format!("{key} must be 0 (off) or positive, got {value}"));
+                return Err(ParamError::at(
+                    key,
+                    format!("must be 0 (off) or positive, got {value}"),
+                ));
             }
         }
         Ok(())
@@ -176,7 +179,7 @@ pub struct Pcm {
 
 impl Pcm {
     pub fn new(params: PcmParams) -> Result<Self, String> {
-        params.validate()?;
+        params.validate().map_err(|error| error.to_string())?;
         Ok(Self::from_checked(params))
     }
 

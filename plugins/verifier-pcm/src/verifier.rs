@@ -61,11 +61,11 @@ impl PcmVerifier {
         config
             .fitness
             .validate()
-            .map_err(|e| PluginError::failed("pcm", e))?;
+            .map_err(|e| PluginError::failed("pcm", e.to_string()))?;
         config
             .consistency
             .validate()
-            .map_err(|e| PluginError::failed("pcm", e))?;
+            .map_err(|e| PluginError::failed("pcm", e.to_string()))?;
         Ok(Self::from_checked(config))
     }
 
@@ -145,7 +145,7 @@ impl GncVerifier {
         config
             .fitness
             .validate()
-            .map_err(|e| PluginError::failed("gnc", e))?;
+            .map_err(|e| PluginError::failed("gnc", e.to_string()))?;
         Self::from_checked(config)
     }
 
@@ -179,15 +179,17 @@ impl Verifier for GncVerifier {
 
 impl skid_core::PluginParams for PcmConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
-        self.fitness.validate().map_err(skid_core::ParamError::named_in)?;
+        self.fitness
+            .validate()
+            .map_err(|error| error.in_table("fitness"))?;
         self.consistency
             .validate()
-            .map_err(skid_core::ParamError::named_in)
+            .map_err(|error| error.in_table("consistency"))
     }
 }
 
 impl skid_core::PluginParams for GncConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
-        self.fitness.validate().map_err(skid_core::ParamError::named_in)
+        self.fitness.validate().map_err(|error| error.in_table("fitness"))
     }
 }
