@@ -67,6 +67,7 @@ pub fn descriptor_message(
             keyframe_index: id.index,
             stamp_nanos,
             values: DescriptorValues::encode(&descriptor.values, encoding)?,
+            newest_held: Vec::new(),
         }],
     }))
 }

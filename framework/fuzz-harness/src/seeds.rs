@@ -71,6 +71,7 @@ fn messages() -> Vec<Message> {
                     keyframe_index: 3,
                     stamp_nanos: 1_500_000_000,
                     values,
+                    newest_held: Vec::new(),
                 }],
             }));
         }

@@ -32,7 +32,8 @@ pub use envelope::{
 };
 pub use messages::{
     Capabilities, ChainEdge, CloudMsg, CloudRequest, DescriptorBatch, DescriptorEntry, FrameMsg, Frames,
-    InvalidMessage, LoopMsg, Loops, Message, MessageKind, OdomChain, PeerStatus,
+    HeldKeyframe, InvalidMessage, LoopMsg, Loops, MAX_HELD_PEERS, Message, MessageKind, OdomChain,
+    PeerStatus,
 };
 pub use sequence::{Arrival, NewestWins, PeerSequences, SequenceWindow};
 pub use wire::{InformationMsg, PoseMsg};

@@ -100,6 +100,31 @@ pub struct DescriptorEntry {
     pub keyframe_index: u32,
     pub stamp_nanos: u64,
     pub values: DescriptorValues,
+    /// What the sender's index held when it looked for this keyframe's candidates: the newest keyframe
+    /// of each peer whose descriptor it had. A receiver whose newer keyframes the sender did not hold
+    /// looks for those candidates itself (at most [`MAX_HELD_PEERS`] entries).
+    pub newest_held: Vec<HeldKeyframe>,
+}
+
+/// The newest keyframe of `robot` a robot's descriptor index held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HeldKeyframe {
+    pub robot: RobotId,
+    pub keyframe_index: u32,
+}
+
+/// Most [`DescriptorEntry::newest_held`] entries a message may carry (one per peer of a fleet).
+pub const MAX_HELD_PEERS: usize = 1024;
+
+impl DescriptorEntry {
+    /// The newest keyframe of `robot` the sender held when it looked for this keyframe's candidates;
+    /// `None` when it held none.
+    pub fn held_of(&self, robot: RobotId) -> Option<u32> {
+        self.newest_held
+            .iter()
+            .find(|held| held.robot == robot)
+            .map(|held| held.keyframe_index)
+    }
 }
 
 /// A batch of descriptors of one kind from one robot.
@@ -261,6 +286,13 @@ impl Message {
                     }
                     if *length.get_or_insert(entry.values.len()) != entry.values.len() {
                         return Err(field("descriptors of one batch differ in length"));
+                    }
+                    if entry.newest_held.len() > MAX_HELD_PEERS {
+                        return Err(field(format!(
+                            "descriptor of keyframe {} names {} held peers, at most {MAX_HELD_PEERS} allowed",
+                            entry.keyframe_index,
+                            entry.newest_held.len()
+                        )));
                     }
                 }
                 Ok(())

@@ -42,11 +42,13 @@ fn sample_messages(robot: u32) -> Vec<Message> {
                     keyframe_index: 3,
                     stamp_nanos: 1_000_000_123,
                     values: DescriptorValues::encode(&values, DescriptorEncoding::F32).unwrap(),
+                    newest_held: Vec::new(),
                 },
                 DescriptorEntry {
                     keyframe_index: 4,
                     stamp_nanos: 2_000_000_456,
                     values: DescriptorValues::encode(&values, DescriptorEncoding::U8).unwrap(),
+                    newest_held: Vec::new(),
                 },
             ],
         }),

@@ -127,6 +127,7 @@ mod tests {
                 keyframe_index: index,
                 stamp_nanos: u64::from(index),
                 values: DescriptorValues::F32(vec![index as f32; 4]),
+                newest_held: Vec::new(),
             }],
         })
     }

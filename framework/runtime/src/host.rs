@@ -34,6 +34,7 @@ mod merges;
 mod own_track;
 mod peer_clouds;
 mod peers;
+mod retrieval;
 mod scan_step;
 mod served_clouds;
 
@@ -82,6 +83,9 @@ pub struct RobotHost {
     candidates: CandidateQueue,
     /// The own clouds sent to each peer.
     served: ServedClouds,
+    /// The newest keyframe of each peer whose descriptor the index holds (sent with each own descriptor,
+    /// so a peer knows which candidates this robot could not see).
+    held_descriptors: BTreeMap<RobotId, u32>,
     /// Well-formed peer messages refused (wrong descriptor kind, foreign loops, …), by class.
     peer_faults: PeerFaults,
     graph: BackendBook,
@@ -114,6 +118,7 @@ impl RobotHost {
             peer_clouds: PeerClouds::default(),
             candidates: CandidateQueue::default(),
             served: ServedClouds::default(),
+            held_descriptors: BTreeMap::new(),
             peer_faults: PeerFaults::default(),
             graph: BackendBook::default(),
             frames: FrameBook::default(),

@@ -1,17 +1,25 @@
 //! The protocol messages a robot sends its peers (descriptors, odometry chain steps, cloud requests,
 //! loops) built from the host's data, and where each goes.
 
+use std::collections::BTreeMap;
+
 use skid_core::slots::{DescriptorBuf, Destination, LoopClosure};
 use skid_core::{Information, Keyframe, KeyframeId, Pose, RobotId};
 use skid_protocol::{
     ChainEdge, CloudRequest, DescriptorBatch, DescriptorEncoding, DescriptorEntry, DescriptorValues,
-    InformationMsg, LoopMsg, Loops, Message, OdomChain, PoseMsg,
+    HeldKeyframe, InformationMsg, LoopMsg, Loops, Message, OdomChain, PoseMsg,
 };
 
 use crate::settings::information_from_covariance;
 
-/// A keyframe's descriptor, for every peer.
-pub fn descriptor_message(robot: RobotId, keyframe: &Keyframe, descriptor: &DescriptorBuf) -> Message {
+/// A keyframe's descriptor, for every peer, with the newest keyframe of each peer the sender's index
+/// held when it looked for the keyframe's candidates.
+pub fn descriptor_message(
+    robot: RobotId,
+    keyframe: &Keyframe,
+    descriptor: &DescriptorBuf,
+    held: &BTreeMap<RobotId, u32>,
+) -> Message {
     let values = DescriptorValues::encode(&descriptor.values, DescriptorEncoding::F32)
         .unwrap_or(DescriptorValues::F32(descriptor.values.clone()));
     Message::Descriptors(DescriptorBatch {
@@ -21,6 +29,13 @@ pub fn descriptor_message(robot: RobotId, keyframe: &Keyframe, descriptor: &Desc
             keyframe_index: keyframe.id.index,
             stamp_nanos: keyframe.stamp_nanos,
             values,
+            newest_held: held
+                .iter()
+                .map(|(&robot, &keyframe_index)| HeldKeyframe {
+                    robot,
+                    keyframe_index,
+                })
+                .collect(),
         }],
     })
 }

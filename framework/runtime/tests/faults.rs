@@ -187,6 +187,28 @@ fn thirty_percent_loss_still_finds_inter_robot_loops() {
     );
 }
 
+/// A link that delays every message by 1.5 s: robots that pass a place within that delay of each other
+/// do not hold each other's descriptors when they make their keyframes there, so the pair's owner looks
+/// for those candidates when the descriptor arrives. The fleet still finds its loops, none of them twice
+/// (without the query on arrival this run raised 12 candidates and accepted no loop).
+#[test]
+fn a_slow_link_loses_no_candidate_to_its_delay() {
+    let mut slow = fleet(&["transport.loopback.link.latency_ms=1500"]);
+    let summary = slow.run_lockstep(|_| {}).unwrap();
+    assert_complete_without_duplicates(&slow, &summary);
+    let stats: Vec<_> = slow.robots.iter().map(|robot| robot.loop_stats()).collect();
+    let on_arrival: usize = stats.iter().map(|s| s.inter_on_arrival).sum();
+    assert!(
+        on_arrival > 0,
+        "no candidate was found on a descriptor's arrival: {stats:?}"
+    );
+    let loops = all_inter_loops(&slow);
+    assert!(
+        involving(&loops, 0) >= 3 && involving(&loops, 2) >= 3,
+        "too few inter-robot loops over a slow link: {loops:?}"
+    );
+}
+
 #[test]
 fn duplicated_messages_change_nothing() {
     let clean_loops = &clean().loops;

@@ -48,6 +48,9 @@ pub struct LoopStats {
     pub coarse_invalid_refined: usize,
     pub retracted: usize,
     pub received_from_peers: usize,
+    /// Of `candidates_inter`, those found when a peer's descriptor arrived (against own keyframes the
+    /// peer had not seen when it looked for candidates), not by querying a new own keyframe.
+    pub inter_on_arrival: usize,
 }
 
 impl LoopStats {
@@ -94,6 +97,7 @@ pub enum LoopStanding {
 pub(crate) enum LoopEvent {
     IntraCandidate,
     InterCandidate,
+    InterOnArrival,
     RepeatedPair,
     CloudMissing,
     CoarseInvalid,
@@ -133,6 +137,7 @@ impl LoopBook {
         let counter = match event {
             LoopEvent::IntraCandidate => &mut self.counters.candidates_intra,
             LoopEvent::InterCandidate => &mut self.counters.candidates_inter,
+            LoopEvent::InterOnArrival => &mut self.counters.inter_on_arrival,
             LoopEvent::RepeatedPair => &mut self.counters.repeated_pair,
             LoopEvent::CloudMissing => &mut self.counters.cloud_missing,
             LoopEvent::CoarseInvalid => &mut self.counters.coarse_invalid,

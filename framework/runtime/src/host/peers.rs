@@ -44,9 +44,9 @@ impl RobotHost {
                     );
                     return Ok(());
                 }
-                let Some(index) = self.index.as_mut() else {
+                if self.index.is_none() {
                     return Ok(());
-                };
+                }
                 for entry in batch.entries {
                     let Ok(values) = entry.values.decode() else {
                         self.peer_faults.record(
@@ -61,21 +61,30 @@ impl RobotHost {
                         robot: batch.robot,
                         index: entry.keyframe_index,
                     };
-                    if let Err(error) = index.insert(
-                        id,
-                        DescriptorBuf {
-                            kind: batch.kind.clone(),
-                            values,
-                        },
-                    ) {
+                    let descriptor = DescriptorBuf {
+                        kind: batch.kind.clone(),
+                        values,
+                    };
+                    let Some(index) = self.index.as_mut() else {
+                        return Ok(());
+                    };
+                    // The index checks the descriptor (its length, a keyframe it holds already) before
+                    // anything is looked up with it.
+                    if let Err(error) = index.insert(id, descriptor.clone()) {
                         self.peer_faults.record(
                             self.robot,
                             from,
                             "descriptor_refused",
                             format_args!("{error}"),
                         );
+                        continue;
                     }
+                    let newest = self.held_descriptors.entry(id.robot).or_insert(id.index);
+                    *newest = (*newest).max(id.index);
+                    let newest_held = entry.held_of(self.robot);
+                    self.query_arrived_descriptor(config, id, &descriptor, newest_held)?;
                 }
+                self.admit_candidates(config, outbox)?;
             }
             Message::CloudRequest(request) => {
                 let now_nanos = self.now_nanos();

@@ -205,17 +205,11 @@ impl RobotHost {
             self.robot,
             keyframe,
             &descriptor,
+            &self.held_descriptors,
         ));
         let loops = &config.loops;
         let robot = self.robot;
-        let threshold = if loops.max_descriptor_distance > 0.0 {
-            loops.max_descriptor_distance
-        } else {
-            self.plugins
-                .descriptor
-                .as_ref()
-                .map_or(f64::INFINITY, |d| d.match_threshold())
-        };
+        let threshold = self.candidate_distance_limit(config);
         let exclude = |candidate: KeyframeId| {
             if candidate.robot == robot {
                 !loops.intra_robot || candidate.index + loops.exclude_recent_keyframes >= id.index

@@ -51,6 +51,7 @@ impl Robot {
                 stamp_nanos: u64::from(index) * 100 * MS,
                 values: DescriptorValues::encode(&descriptor(self.id, index), DescriptorEncoding::U8)
                     .unwrap(),
+                newest_held: Vec::new(),
             })
             .collect::<Vec<_>>();
         let mut messages = vec![Message::Heartbeat(PeerStatus {

@@ -141,6 +141,7 @@ fn zenoh_robot_process() {
             keyframe_index: 0,
             stamp_nanos: 0,
             values: DescriptorValues::encode(&values, DescriptorEncoding::U8).unwrap(),
+            newest_held: Vec::new(),
         }],
     });
     let heartbeat = Message::Heartbeat(PeerStatus {

@@ -49,6 +49,7 @@ fn descriptors(robot: u32, keyframe_index: u32, kind: &str, values: usize, stamp
             keyframe_index,
             stamp_nanos,
             values: DescriptorValues::encode(&values, DescriptorEncoding::U8).unwrap(),
+            newest_held: Vec::new(),
         }],
     })
 }
