@@ -18,7 +18,10 @@ use std::sync::OnceLock;
 
 use skid_config::ConfigSources;
 use skid_core::{KeyframeId, RobotId};
-use skid_protocol::{Capabilities, Message, PeerStatus, ProtocolConfig, ProtocolEndpoint};
+use skid_protocol::{
+    Capabilities, InformationMsg, LoopMsg, Loops, Message, PeerStatus, PoseMsg, ProtocolConfig,
+    ProtocolEndpoint,
+};
 use skid_runtime::{Fleet, RunSummary};
 
 const SCANS: usize = 45;
@@ -308,6 +311,59 @@ fn malformed_and_oversized_datagrams_are_dropped_and_nothing_is_lost() {
     }
     // The robots' graphs are exactly those of the clean run.
     assert_eq!(&Graphs::of(&attacked), clean());
+}
+
+/// Six loops robot 2 never found, between robot 0's keyframe i and robot 2's keyframe 5 − i, each claiming
+/// the keyframes are 50 m apart (the robots fly together, never more than a few metres apart): what a
+/// broken or compromised peer could send.
+fn forged_loops() -> Message {
+    let fifty_metres = skid_core::Pose::translation(50.0, 0.0, 0.0);
+    Message::Loops(Loops {
+        robot: RobotId(2),
+        accepted: (0..6)
+            .map(|i| LoopMsg {
+                target: KeyframeId::new(0, i),
+                source: KeyframeId::new(2, 5 - i),
+                target_from_source: PoseMsg::from_pose(&fifty_metres),
+                information: InformationMsg::identity(),
+                fitness_m2: 0.01,
+            })
+            .collect(),
+        retracted: Vec::new(),
+    })
+}
+
+#[test]
+fn loops_a_peer_forged_do_not_enter_the_receivers_graph() {
+    let mut attacked = fleet(&[]);
+    let hub = loopback_hub(&attacked).clone();
+    let mut forger = ProtocolEndpoint::new(RobotId(2), 79, ProtocolConfig::default());
+    let forged = forger.encode(&forged_loops()).unwrap();
+    let mut round = 0;
+    let summary = attacked
+        .run_lockstep(|_| {
+            round += 1;
+            if round == 40 {
+                hub.inject(RobotId(2), RobotId(0), &forged);
+            }
+        })
+        .unwrap();
+    assert_complete_without_duplicates(&attacked, &summary);
+    let robot_0 = &attacked.robots[0];
+    let far: Vec<_> = robot_0
+        .accepted_loops()
+        .values()
+        .filter(|l| l.target_from_source.translation.vector.norm() > 10.0)
+        .map(|l| (l.target, l.source))
+        .collect();
+    assert!(far.is_empty(), "forged loops in robot 0's graph: {far:?}");
+    let stats = robot_0.loop_stats();
+    assert!(
+        stats.received_from_peers >= 6 && stats.peer_loops_held_back >= 6,
+        "the forged loops were not judged: {stats:?}"
+    );
+    // Robot 0 still joins robot 2 through the loops they found.
+    assert!(involving(&inter_loops(&attacked, 0), 2) >= 3);
 }
 
 /// Runs with robot 2 cut off from everyone from round `from` until round `until` (never restored when

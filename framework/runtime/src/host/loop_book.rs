@@ -2,7 +2,7 @@
 //! stands now and why a refused one was refused), the loops its peers accepted with it, which keyframe
 //! pairs were tried, and the counters of what became of every candidate.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use skid_core::slots::LoopClosure;
 use skid_core::{Information, KeyframeId, LoopId, Pose};
@@ -48,6 +48,9 @@ pub struct LoopStats {
     pub coarse_invalid_refined: usize,
     pub retracted: usize,
     pub received_from_peers: usize,
+    /// Loops peers accepted with this robot that its own verifier has not let into its graph (yet, or
+    /// ever): they are undecided, refused, or retracted here.
+    pub peer_loops_held_back: usize,
     /// Of `candidates_inter`, those found when a peer's descriptor arrived (against own keyframes the
     /// peer had not seen when it looked for candidates), not by querying a new own keyframe.
     pub inter_on_arrival: usize,
@@ -128,6 +131,10 @@ pub(crate) struct LoopBook {
     standing: BTreeMap<LoopId, (bool, LoopStanding)>,
     /// Why the verifier refused (or retracted) each loop that stands rejected.
     rejection_reasons: BTreeMap<LoopId, String>,
+    /// The loops peers found and sent, judged by this robot's verifier like its own.
+    from_peers: BTreeSet<LoopId>,
+    /// Peer loops waiting for the odometry that places their keyframes before they can be judged.
+    awaiting_poses: BTreeSet<LoopId>,
     /// Event counters; [`LoopBook::stats`] completes them with the loops' current standing.
     counters: LoopStats,
 }
@@ -214,15 +221,46 @@ impl LoopBook {
         self.accepted.insert(closure.id, closure);
     }
 
-    /// Records a loop a peer accepted with this robot, now in the graph.
-    pub(crate) fn accept_from_peer(&mut self, closure: LoopClosure) {
+    /// Records a loop a peer accepted with this robot, submitted to this robot's verifier: it enters
+    /// the graph when the verifier accepts it, as this robot's own loops do.
+    pub(crate) fn received(&mut self, closure: LoopClosure) {
         self.counters.received_from_peers += 1;
-        self.accepted.insert(closure.id, closure);
+        self.from_peers.insert(closure.id);
+        self.unaccepted.insert(closure.id, closure);
     }
 
-    /// Takes out a loop the peer retracted; its id when it was in the graph.
+    /// Holds a peer loop back until the odometry places both its keyframes.
+    pub(crate) fn await_poses(&mut self, id: LoopId) {
+        self.awaiting_poses.insert(id);
+    }
+
+    /// How many peer loops wait for odometry.
+    pub(crate) fn awaiting_poses_count(&self) -> usize {
+        self.awaiting_poses.len()
+    }
+
+    /// The peer loops that waited for odometry, to judge again (those that still cannot be wait again).
+    pub(crate) fn take_awaiting_poses(&mut self) -> Vec<LoopClosure> {
+        std::mem::take(&mut self.awaiting_poses)
+            .into_iter()
+            .filter_map(|id| self.unaccepted.get(&id).cloned())
+            .collect()
+    }
+
+    /// Whether the loop is one a peer found.
+    pub(crate) fn is_from_peer(&self, id: LoopId) -> bool {
+        self.from_peers.contains(&id)
+    }
+
+    /// Forgets a loop the peer that found it retracted; its id when it was in the graph. A pair this
+    /// robot found itself is not the peer's to retract.
     pub(crate) fn retract_from_peer(&mut self, pair: (KeyframeId, KeyframeId)) -> Option<LoopId> {
         let id = self.by_pair.get(&pair).copied()?;
+        if !self.from_peers.contains(&id) {
+            return None;
+        }
+        self.unaccepted.remove(&id);
+        self.awaiting_poses.remove(&id);
         self.accepted.remove(&id)?;
         self.counters.retracted += 1;
         Some(id)
@@ -257,6 +295,11 @@ impl LoopBook {
                 (LoopStanding::Undecided, _) => stats.undecided += 1,
             }
         }
+        stats.peer_loops_held_back = self
+            .from_peers
+            .iter()
+            .filter(|id| !self.accepted.contains_key(id))
+            .count();
         stats.awaiting_cloud = budget.awaiting_cloud;
         stats.queued = budget.queued;
         stats.expired = budget.expired;

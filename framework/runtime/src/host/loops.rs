@@ -99,36 +99,45 @@ impl RobotHost {
             false => guess,
         };
         let closure = self.loops.new_loop(pair, target_from_source, loop_information());
-        let id = closure.id;
-        self.refresh_frames();
-        let verdict = match self.plugins.verifier.as_mut() {
-            Some(verifier) => {
-                let started = std::time::Instant::now();
-                let me = self.robot;
-                let book = &self.frames;
-                let through = move |a, b| book.through_others(me, a, b);
-                let graph = HostGraph {
-                    chains: &self.chains,
-                    backend: self.plugins.backend.as_ref().map(|backend| backend.graph()),
-                    loops: self.loops.accepted(),
-                    through_others: Some(&through),
-                };
-                let submitted = LoopCandidate {
-                    closure: closure.clone(),
-                    target_cloud: target_cloud.view(),
-                    source_cloud: source_cloud.view(),
-                };
-                let verdict = verifier.submit(&submitted, &graph);
-                self.add_stage_ms("verifier", started.elapsed().as_secs_f64() * 1e3);
-                verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?
-            }
-            None => Verdict {
-                accepted: vec![id],
-                ..Verdict::default()
+        let verdict = self.judge(
+            config,
+            LoopCandidate {
+                closure: closure.clone(),
+                target_cloud: target_cloud.view(),
+                source_cloud: source_cloud.view(),
             },
-        };
+        )?;
         self.loops.submitted(closure);
         self.apply_verdict(config, verdict, outbox)
+    }
+
+    /// Submits a loop to the verifier (with its clouds, or none for a loop a peer found); without a
+    /// verifier every loop is accepted.
+    pub(crate) fn judge(
+        &mut self,
+        config: &ResolvedConfig,
+        submitted: LoopCandidate<'_>,
+    ) -> Result<Verdict, RuntimeError> {
+        self.refresh_frames();
+        let Some(verifier) = self.plugins.verifier.as_mut() else {
+            return Ok(Verdict {
+                accepted: vec![submitted.closure.id],
+                ..Verdict::default()
+            });
+        };
+        let started = std::time::Instant::now();
+        let me = self.robot;
+        let book = &self.frames;
+        let through = move |a, b| book.through_others(me, a, b);
+        let graph = HostGraph {
+            chains: &self.chains,
+            backend: self.plugins.backend.as_ref().map(|backend| backend.graph()),
+            loops: self.loops.accepted(),
+            through_others: Some(&through),
+        };
+        let verdict = verifier.submit(&submitted, &graph);
+        self.add_stage_ms("verifier", started.elapsed().as_secs_f64() * 1e3);
+        verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))
     }
 
     /// Applies a verdict: retracted loops leave the graph, accepted ones enter it, peers are told.
@@ -153,6 +162,7 @@ impl RobotHost {
         let mut changed = false;
         let mut accepted_messages = Vec::new();
         let mut retracted_messages = Vec::new();
+        // Only this robot's own loops are announced: a loop a peer found is the peer's to share.
         for id in verdict.retracted {
             if let Some(closure) = self.loops.retract(id) {
                 if let Some(backend) = self.plugins.backend.as_mut() {
@@ -163,7 +173,7 @@ impl RobotHost {
                         source: e,
                     })?;
                 }
-                if closure.is_inter_robot() {
+                if closure.is_inter_robot() && !self.loops.is_from_peer(id) {
                     retracted_messages.push(closure);
                 }
                 changed = true;
@@ -174,7 +184,7 @@ impl RobotHost {
                 continue;
             };
             self.add_loop_to_backend(config, &closure)?;
-            if closure.is_inter_robot() {
+            if closure.is_inter_robot() && !self.loops.is_from_peer(id) {
                 accepted_messages.push(closure.clone());
             }
             self.loops.accept(closure);

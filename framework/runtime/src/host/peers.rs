@@ -2,8 +2,8 @@
 //! and replies, loops).
 
 use skid_config::ResolvedConfig;
-use skid_core::slots::DescriptorBuf;
-use skid_core::{Cloud, Information, KeyframeId, RobotId};
+use skid_core::slots::{DescriptorBuf, LoopCandidate, LoopClosure};
+use skid_core::{Cloud, CloudView, Information, KeyframeId, RobotId};
 use skid_protocol::{CloudMsg, CompressedPoints, Loops, Message, OdomChain, PoseMsg};
 
 use super::RobotHost;
@@ -143,7 +143,7 @@ impl RobotHost {
                     self.process_candidate(config, candidate, outbox)?;
                 }
             }
-            Message::OdomChain(chain) => self.on_chain(config, chain)?,
+            Message::OdomChain(chain) => self.on_chain(config, chain, outbox)?,
             Message::Loops(loops) => self.on_peer_loops(config, from, loops, outbox)?,
             Message::Frames(frames) => self.on_frames(config, from, frames, outbox)?,
         }
@@ -151,7 +151,12 @@ impl RobotHost {
     }
 
     /// Extends a peer's odometry chain (and its copy in the back-end, once it is there).
-    fn on_chain(&mut self, config: &ResolvedConfig, chain: OdomChain) -> Result<(), RuntimeError> {
+    fn on_chain(
+        &mut self,
+        config: &ResolvedConfig,
+        chain: OdomChain,
+        outbox: &mut Vec<Message>,
+    ) -> Result<(), RuntimeError> {
         let Some(mut pose) = chain.world_from_first.to_pose() else {
             return Ok(());
         };
@@ -193,10 +198,13 @@ impl RobotHost {
                 self.add_peer_keyframe(config, id, guess, Some((index - 1, previous, pose)))?;
             }
         }
-        self.retry_deferred_loops(config)
+        self.retry_deferred_loops(config, outbox)
     }
 
-    /// Loops a peer accepted (or retracted) with this robot: both sides keep the same set.
+    /// Loops a peer accepted (or retracted) with this robot. An accepted one goes through this robot's
+    /// own verifier, pooled with the loops it found itself between the two robots (without clouds: the
+    /// peer checked the fit), so a peer's word alone never moves this robot's map; a retracted one
+    /// leaves.
     fn on_peer_loops(
         &mut self,
         config: &ResolvedConfig,
@@ -219,8 +227,8 @@ impl RobotHost {
                 continue;
             };
             let closure = self.loops.new_loop(pair, target_from_source, information);
-            self.add_loop_to_backend(config, &closure)?;
-            self.loops.accept_from_peer(closure);
+            self.loops.received(closure.clone());
+            self.judge_peer_loop(config, closure, outbox)?;
         }
         for pair in loops.retracted {
             if let Some(id) = self.loops.retract_from_peer(pair)
@@ -256,7 +264,7 @@ impl RobotHost {
         if self.own.keyframe(own.index).is_none() {
             // A restarted robot hears its peers' loops before it has re-made its keyframes, so such a
             // loop waits (deferred, outside the graph) until the keyframe exists, up to a bound.
-            if self.graph.deferred_count() >= MAX_DEFERRED_LOOPS {
+            if self.graph.deferred_count() + self.loops.awaiting_poses_count() >= MAX_DEFERRED_LOOPS {
                 self.peer_faults.record(
                     self.robot,
                     from,
@@ -297,11 +305,42 @@ impl RobotHost {
         }
     }
 
-    /// Adds deferred loops whose keyframes are now all in the back-end.
-    fn retry_deferred_loops(&mut self, config: &ResolvedConfig) -> Result<(), RuntimeError> {
+    /// Judges a loop a peer found, once the odometry known here places both its keyframes (until then
+    /// it waits, outside the verifier).
+    fn judge_peer_loop(
+        &mut self,
+        config: &ResolvedConfig,
+        closure: LoopClosure,
+        outbox: &mut Vec<Message>,
+    ) -> Result<(), RuntimeError> {
+        if self.chains.pose(closure.target).is_none() || self.chains.pose(closure.source).is_none() {
+            self.loops.await_poses(closure.id);
+            return Ok(());
+        }
+        let verdict = self.judge(
+            config,
+            LoopCandidate {
+                closure,
+                target_cloud: CloudView::default(),
+                source_cloud: CloudView::default(),
+            },
+        )?;
+        self.apply_verdict(config, verdict, outbox)
+    }
+
+    /// Adds deferred loops whose keyframes are now all in the back-end, and judges the peer loops
+    /// whose keyframes the odometry now places.
+    fn retry_deferred_loops(
+        &mut self,
+        config: &ResolvedConfig,
+        outbox: &mut Vec<Message>,
+    ) -> Result<(), RuntimeError> {
         let deferred = self.graph.take_deferred();
         for closure in deferred {
             self.add_loop_to_backend(config, &closure)?;
+        }
+        for closure in self.loops.take_awaiting_poses() {
+            self.judge_peer_loop(config, closure, outbox)?;
         }
         Ok(())
     }
