@@ -184,10 +184,7 @@ pub struct KissMatcher {
 
 impl KissMatcher {
     pub fn new(config: KissMatcherConfig, context: &PluginContext) -> PluginResult<Self> {
-        config
-            .validate()
-            .map_err(|error| PluginError::failed(PLUGIN_NAME, error.to_string()))?;
-        Self::from_checked(config, context)
+        Self::from_checked(skid_core::registry::check::checked(PLUGIN_NAME, config)?, context)
     }
 
     /// [`KissMatcher::new`] for a configuration the registry has checked already (it is checked once, when

@@ -131,10 +131,7 @@ pub struct RansacMatcher {
 
 impl RansacMatcher {
     pub fn new(config: RansacConfig, context: &PluginContext) -> PluginResult<Self> {
-        config
-            .validate()
-            .map_err(|error| PluginError::failed(PLUGIN_NAME, error.to_string()))?;
-        Self::from_checked(config, context)
+        Self::from_checked(skid_core::registry::check::checked(PLUGIN_NAME, config)?, context)
     }
 
     /// [`RansacMatcher::new`] for a configuration the registry has checked already (it is checked once, when

@@ -58,15 +58,9 @@ pub struct PcmVerifier {
 
 impl PcmVerifier {
     pub fn new(config: PcmConfig) -> PluginResult<Self> {
-        config
-            .fitness
-            .validate()
-            .map_err(|e| PluginError::failed("pcm", e.to_string()))?;
-        config
-            .consistency
-            .validate()
-            .map_err(|e| PluginError::failed("pcm", e.to_string()))?;
-        Ok(Self::from_checked(config))
+        Ok(Self::from_checked(skid_core::registry::check::checked(
+            "pcm", config,
+        )?))
     }
 
     /// [`PcmVerifier::new`] for a configuration the registry has checked already (it is checked once,
@@ -142,11 +136,7 @@ pub struct GncVerifier {
 
 impl GncVerifier {
     pub fn new(config: GncConfig) -> PluginResult<Self> {
-        config
-            .fitness
-            .validate()
-            .map_err(|e| PluginError::failed("gnc", e.to_string()))?;
-        Self::from_checked(config)
+        Self::from_checked(skid_core::registry::check::checked("gnc", config)?)
     }
 
     /// [`GncVerifier::new`] for a configuration the registry has checked already (it is checked once, when

@@ -134,6 +134,15 @@ pub fn within(key: &str, value: f64, low: f64, high: f64) -> Result<(), ParamErr
     }
 }
 
+/// `config` after its range checks, for a constructor that builds one instance directly (the registry
+/// checks a loaded configuration itself, once); a refusal names the plugin and the key.
+pub fn checked<C: PluginParams>(plugin: &str, config: C) -> Result<C, crate::PluginError> {
+    config
+        .check()
+        .map_err(|error| crate::PluginError::failed(plugin, error.to_string()))?;
+    Ok(config)
+}
+
 /// A count or size that must lie within `[low, high]`.
 pub fn count_within<T: PartialOrd + Display>(key: &str, value: T, low: T, high: T) -> Result<(), ParamError> {
     if low <= value && value <= high {
