@@ -86,6 +86,8 @@ pub struct RobotHost {
     /// The newest keyframe of each peer whose descriptor the index holds (sent with each own descriptor,
     /// so a peer knows which candidates this robot could not see).
     held_descriptors: BTreeMap<RobotId, u32>,
+    /// When (by the host's clock) a message from each peer last arrived.
+    heard_nanos: BTreeMap<RobotId, u64>,
     /// Well-formed peer messages refused (wrong descriptor kind, foreign loops, …), by class.
     peer_faults: PeerFaults,
     graph: BackendBook,
@@ -119,6 +121,7 @@ impl RobotHost {
             candidates: CandidateQueue::default(),
             served: ServedClouds::default(),
             held_descriptors: BTreeMap::new(),
+            heard_nanos: BTreeMap::new(),
             peer_faults: PeerFaults::default(),
             graph: BackendBook::default(),
             frames: FrameBook::default(),

@@ -1,9 +1,10 @@
 //! The host's side of the loop-closure budget: inter-robot candidates are ranked with what the host
-//! knows (which robots are in its frame, which peer clouds it holds or asked for), admitted within the
-//! period's budget, and either registered at once (the cloud is here) or parked until the cloud comes;
-//! on every step the waits that ran out expire and unanswered requests are asked again.
+//! knows (which robots are in its frame, which peer clouds it holds or asked for, which peers it heard
+//! from lately), admitted within the period's budget, and either registered at once (the cloud is here)
+//! or parked until the cloud comes; on every step the waits that ran out expire and unanswered requests
+//! are asked again.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 use skid_config::ResolvedConfig;
 use skid_core::{KeyframeId, RobotId};
@@ -28,10 +29,16 @@ pub(crate) fn budget(config: &ResolvedConfig) -> Budget {
     }
 }
 
-/// What ranks candidates: the robots in this robot's frame (itself included) and the peer clouds.
+/// A peer heard from within this long (by the host's clock) counts as reachable: a few of its
+/// keyframes' descriptors and odometry, or its heartbeats, at any speed the missions drive.
+const REACHABLE_NANOS: u64 = 10_000_000_000;
+
+/// What ranks candidates: the robots in this robot's frame (itself included), the peer clouds, and the
+/// peers heard from lately.
 pub(crate) struct HostRanking<'a> {
     in_frame: BTreeSet<RobotId>,
     clouds: &'a PeerClouds,
+    reachable: BTreeSet<RobotId>,
 }
 
 impl CandidateRanking for HostRanking<'_> {
@@ -42,14 +49,33 @@ impl CandidateRanking for HostRanking<'_> {
     fn cloud_known(&self, keyframe: KeyframeId) -> bool {
         self.clouds.knows(keyframe)
     }
+
+    fn reachable(&self, robot: RobotId) -> bool {
+        self.reachable.contains(&robot)
+    }
 }
 
 impl<'a> HostRanking<'a> {
-    /// The ranking as `me` knows it now.
-    fn new(me: RobotId, frames: &FrameBook, clouds: &'a PeerClouds) -> Self {
+    /// The ranking as `me` knows it at `now_nanos`, having last heard from each peer at `heard_nanos`.
+    fn new(
+        me: RobotId,
+        frames: &FrameBook,
+        clouds: &'a PeerClouds,
+        heard_nanos: &BTreeMap<RobotId, u64>,
+        now_nanos: u64,
+    ) -> Self {
         let mut in_frame: BTreeSet<RobotId> = frames.joined(me).into_keys().collect();
         in_frame.insert(me);
-        Self { in_frame, clouds }
+        let reachable = heard_nanos
+            .iter()
+            .filter(|&(_, &heard)| now_nanos.saturating_sub(heard) <= REACHABLE_NANOS)
+            .map(|(&robot, _)| robot)
+            .collect();
+        Self {
+            in_frame,
+            clouds,
+            reachable,
+        }
     }
 }
 
@@ -61,7 +87,14 @@ impl RobotHost {
         queued: super::candidate_queue::QueuedCandidate,
     ) {
         let budget = budget(config);
-        let ranking = HostRanking::new(self.robot, &self.frames, &self.peer_clouds);
+        let now_nanos = self.now_nanos();
+        let ranking = HostRanking::new(
+            self.robot,
+            &self.frames,
+            &self.peer_clouds,
+            &self.heard_nanos,
+            now_nanos,
+        );
         self.candidates.push(queued, &budget, &ranking);
     }
 
@@ -78,7 +111,13 @@ impl RobotHost {
         let now_nanos = self.now_nanos();
         let budget = budget(config);
         let waiting = self.peer_clouds.waiting();
-        let ranking = HostRanking::new(self.robot, &self.frames, &self.peer_clouds);
+        let ranking = HostRanking::new(
+            self.robot,
+            &self.frames,
+            &self.peer_clouds,
+            &self.heard_nanos,
+            now_nanos,
+        );
         let admitted = self.candidates.admit(now_nanos, waiting, &budget, &ranking);
         for pending in admitted {
             if self.peer_clouds.holds(pending.target) {

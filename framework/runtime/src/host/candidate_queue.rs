@@ -2,8 +2,10 @@
 //! admits them, best first, and leave when they wait too long. Swarm-SLAM (Lajoie et al., 2024) verifies
 //! a fixed budget of candidates per period, first those that would connect a robot not yet connected;
 //! the same order is kept here, then candidates whose peer cloud is already held or asked for (they
-//! cost no new cloud on the link), then the closest descriptors. Nothing here grows without bound: the
-//! queue holds at most `capacity` candidates and pushes out its worst when full.
+//! cost no new cloud on the link), then the closest descriptors. A candidate whose cloud must come from a
+//! peer not heard from lately (out of range, or gone) stays queued rather than hold one of the few places
+//! for candidates waiting on a cloud, which it would hold until it expired. Nothing here grows without
+//! bound: the queue holds at most `capacity` candidates and pushes out its worst when full.
 
 use skid_core::{KeyframeId, RobotId};
 
@@ -25,6 +27,8 @@ pub(crate) trait CandidateRanking {
     fn in_frame(&self, robot: RobotId) -> bool;
     /// Whether the cloud of `keyframe` is held or already asked for.
     fn cloud_known(&self, keyframe: KeyframeId) -> bool;
+    /// Whether a message from `robot` arrived lately: a cloud asked of it now is likely to come.
+    fn reachable(&self, robot: RobotId) -> bool;
 }
 
 /// The budget's settings, in the host's clock.
@@ -116,11 +120,18 @@ impl CandidateQueue {
             return Vec::new();
         }
         self.sort(ranking);
-        let taken: Vec<_> = self
-            .queued
-            .drain(..free.min(self.queued.len()))
-            .map(|queued| queued.candidate)
-            .collect();
+        // The best candidates that can be served now: their cloud is known, or its robot is reachable.
+        let mut taken = Vec::new();
+        self.queued.retain(|queued| {
+            let target = queued.candidate.target;
+            let servable = ranking.cloud_known(target) || ranking.reachable(target.robot);
+            if taken.len() < free && servable {
+                taken.push(queued.candidate);
+                false
+            } else {
+                true
+            }
+        });
         self.admitted_this_period += taken.len();
         self.admitted += taken.len();
         taken
@@ -153,6 +164,7 @@ mod tests {
     struct Known {
         in_frame: BTreeSet<u32>,
         clouds: BTreeSet<(u32, u32)>,
+        unreachable: BTreeSet<u32>,
     }
 
     impl CandidateRanking for Known {
@@ -161,6 +173,9 @@ mod tests {
         }
         fn cloud_known(&self, keyframe: KeyframeId) -> bool {
             self.clouds.contains(&(keyframe.robot.0, keyframe.index))
+        }
+        fn reachable(&self, robot: RobotId) -> bool {
+            !self.unreachable.contains(&robot.0)
         }
     }
 
@@ -198,6 +213,7 @@ mod tests {
         let known = Known {
             in_frame: BTreeSet::from([1]),
             clouds: BTreeSet::from([(1, 5)]),
+            unreachable: BTreeSet::new(),
         };
         let mut queue = CandidateQueue::default();
         // Robot 1 is in the frame; robot 2 is not.
@@ -220,6 +236,7 @@ mod tests {
         let known = Known {
             in_frame: BTreeSet::new(),
             clouds: BTreeSet::new(),
+            unreachable: BTreeSet::new(),
         };
         let mut queue = CandidateQueue::default();
         for index in 0..3 {
@@ -235,6 +252,7 @@ mod tests {
         let known = Known {
             in_frame: BTreeSet::new(),
             clouds: BTreeSet::new(),
+            unreachable: BTreeSet::new(),
         };
         let mut queue = CandidateQueue::default();
         for (index, distance) in [0.05, 0.01, 0.03, 0.02, 0.04].into_iter().enumerate() {
@@ -252,6 +270,27 @@ mod tests {
         assert_eq!(queue.expired(), 2);
         let distances: Vec<_> = admitted.iter().map(|c| c.target.index).collect();
         assert_eq!(distances, vec![3, 2]);
+        assert_eq!(queue.len(), 1);
+    }
+
+    #[test]
+    fn a_candidate_of_an_unreachable_robot_waits_in_the_queue_unless_its_cloud_is_known() {
+        let known = Known {
+            in_frame: BTreeSet::new(),
+            clouds: BTreeSet::from([(3, 7)]),
+            unreachable: BTreeSet::from([3]),
+        };
+        let mut queue = CandidateQueue::default();
+        queue.push(queued(3, 1, 0.01, 0), &budget(), &known);
+        queue.push(queued(3, 7, 0.03, 0), &budget(), &known);
+        queue.push(queued(1, 2, 0.04, 0), &budget(), &known);
+        let admitted = queue.admit(0, 0, &budget(), &known);
+        let targets: Vec<_> = admitted
+            .iter()
+            .map(|c| (c.target.robot.0, c.target.index))
+            .collect();
+        // Robot 3's first candidate is the closest, but its cloud would not come: it stays queued.
+        assert_eq!(targets, vec![(3, 7), (1, 2)]);
         assert_eq!(queue.len(), 1);
     }
 }

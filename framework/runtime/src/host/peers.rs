@@ -23,6 +23,8 @@ impl RobotHost {
         replies: &mut Vec<(RobotId, Message)>,
         outbox: &mut Vec<Message>,
     ) -> Result<(), RuntimeError> {
+        let now_nanos = self.now_nanos();
+        self.heard_nanos.insert(from, now_nanos);
         match message {
             Message::Hello(_) | Message::Heartbeat(_) => {}
             Message::Descriptors(batch) => {
