@@ -4,7 +4,7 @@
 //! or parked until the cloud comes; on every step the waits that ran out expire and unanswered requests
 //! are asked again.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 use skid_config::ResolvedConfig;
 use skid_core::{KeyframeId, RobotId};
@@ -12,7 +12,6 @@ use skid_protocol::Message;
 
 use super::RobotHost;
 use super::candidate_queue::{Budget, CandidateRanking};
-use super::frame_book::FrameBook;
 use super::peer_clouds::PeerClouds;
 use crate::clock::nanos_from_s;
 use crate::error::RuntimeError;
@@ -55,31 +54,21 @@ impl CandidateRanking for HostRanking<'_> {
     }
 }
 
-impl<'a> HostRanking<'a> {
-    /// The ranking as `me` knows it at `now_nanos`, having last heard from each peer at `heard_nanos`.
-    fn new(
-        me: RobotId,
-        frames: &FrameBook,
-        clouds: &'a PeerClouds,
-        heard_nanos: &BTreeMap<RobotId, u64>,
-        now_nanos: u64,
-    ) -> Self {
-        let mut in_frame: BTreeSet<RobotId> = frames.joined(me).into_keys().collect();
-        in_frame.insert(me);
-        let reachable = heard_nanos
+impl RobotHost {
+    /// The robots in this robot's frame (itself included) and the peers heard from within
+    /// [`REACHABLE_NANOS`] of `now_nanos`.
+    fn frame_and_reachable(&self, now_nanos: u64) -> (BTreeSet<RobotId>, BTreeSet<RobotId>) {
+        let mut in_frame: BTreeSet<RobotId> = self.frames.joined(self.robot).into_keys().collect();
+        in_frame.insert(self.robot);
+        let reachable = self
+            .heard_nanos
             .iter()
             .filter(|&(_, &heard)| now_nanos.saturating_sub(heard) <= REACHABLE_NANOS)
             .map(|(&robot, _)| robot)
             .collect();
-        Self {
-            in_frame,
-            clouds,
-            reachable,
-        }
+        (in_frame, reachable)
     }
-}
 
-impl RobotHost {
     /// Queues an inter-robot candidate for the budget.
     pub(crate) fn queue_candidate(
         &mut self,
@@ -87,14 +76,12 @@ impl RobotHost {
         queued: super::candidate_queue::QueuedCandidate,
     ) {
         let budget = budget(config);
-        let now_nanos = self.now_nanos();
-        let ranking = HostRanking::new(
-            self.robot,
-            &self.frames,
-            &self.peer_clouds,
-            &self.heard_nanos,
-            now_nanos,
-        );
+        let (in_frame, reachable) = self.frame_and_reachable(self.now_nanos());
+        let ranking = HostRanking {
+            in_frame,
+            reachable,
+            clouds: &self.peer_clouds,
+        };
         self.candidates.push(queued, &budget, &ranking);
     }
 
@@ -111,13 +98,12 @@ impl RobotHost {
         let now_nanos = self.now_nanos();
         let budget = budget(config);
         let waiting = self.peer_clouds.waiting();
-        let ranking = HostRanking::new(
-            self.robot,
-            &self.frames,
-            &self.peer_clouds,
-            &self.heard_nanos,
-            now_nanos,
-        );
+        let (in_frame, reachable) = self.frame_and_reachable(now_nanos);
+        let ranking = HostRanking {
+            in_frame,
+            reachable,
+            clouds: &self.peer_clouds,
+        };
         let admitted = self.candidates.admit(now_nanos, waiting, &budget, &ranking);
         for pending in admitted {
             if self.peer_clouds.holds(pending.target) {
