@@ -23,6 +23,8 @@ impl RobotHost {
         replies: &mut Vec<(RobotId, Message)>,
         outbox: &mut Vec<Message>,
     ) -> Result<(), RuntimeError> {
+        // One reading of the clock serves the whole message: when the peer was last heard, and when a
+        // cloud it asks for was served.
         let now_nanos = self.now_nanos();
         self.heard_nanos.insert(from, now_nanos);
         match message {
@@ -89,7 +91,6 @@ impl RobotHost {
                 self.admit_candidates(config, outbox)?;
             }
             Message::CloudRequest(request) => {
-                let now_nanos = self.now_nanos();
                 let resend_after_nanos = crate::clock::nanos_from_s(config.loops.cloud_resend_after_s);
                 let grid_m = config.loops.cloud_grid_m as f32;
                 for id in request.keyframes.into_iter().filter(|id| id.robot == self.robot) {
