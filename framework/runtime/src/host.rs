@@ -25,6 +25,7 @@ use crate::frontend::FrontEndFeed;
 use crate::peer_faults::PeerFaults;
 
 mod admission;
+mod announced;
 mod backend_book;
 mod candidate_queue;
 mod frame_book;
@@ -34,10 +35,13 @@ mod merges;
 mod own_track;
 mod peer_clouds;
 mod peers;
+mod repeats;
+mod restatements;
 mod retrieval;
 mod scan_step;
 mod served_clouds;
 
+use announced::Announced;
 use backend_book::BackendBook;
 use candidate_queue::CandidateQueue;
 use frame_book::FrameBook;
@@ -47,6 +51,7 @@ pub use loop_book::{LoopStanding, LoopStats, StandingLoop};
 use own_track::OwnTrack;
 pub use own_track::ScanRecord;
 use peer_clouds::PeerClouds;
+use repeats::Repeats;
 pub use served_clouds::CloudServing;
 use served_clouds::ServedClouds;
 
@@ -93,6 +98,10 @@ pub struct RobotHost {
     graph: BackendBook,
     /// Where this robot and its peers place the robots they merged with.
     frames: FrameBook,
+    /// The own inter-robot loops told to each peer, and when they are stated again.
+    announced: Announced,
+    /// When this robot's frames are next sent again after a change.
+    frame_repeats: Repeats<()>,
     stage_ms: BTreeMap<&'static str, f64>,
     /// Set by the executor once the robot's source has ended.
     pub(crate) finished: bool,
@@ -125,6 +134,8 @@ impl RobotHost {
             peer_faults: PeerFaults::default(),
             graph: BackendBook::default(),
             frames: FrameBook::default(),
+            announced: Announced::default(),
+            frame_repeats: Repeats::default(),
             stage_ms: BTreeMap::new(),
             finished: false,
             feed: None,
@@ -262,6 +273,17 @@ impl RobotHost {
         self.loops.accepted()
     }
 
+    /// Whether this robot knows the loop between `target` and `source` (found it, or was told of it by
+    /// the peer that did).
+    pub fn knows_loop(&self, target: KeyframeId, source: KeyframeId) -> bool {
+        self.loops.knows_pair((target, source))
+    }
+
+    /// Whether the loop `id` was found by a peer (this robot was told of it) rather than by this robot.
+    pub fn loop_from_peer(&self, id: LoopId) -> bool {
+        self.loops.is_from_peer(id)
+    }
+
     /// This robot's submitted loops, each with where it stands.
     pub fn standing_loops(&self) -> impl Iterator<Item = StandingLoop<'_>> {
         self.loops.standings()
@@ -275,6 +297,11 @@ impl RobotHost {
     /// Whether inter-robot candidates still wait for a peer's cloud or for the budget.
     pub fn awaits_clouds(&self) -> bool {
         self.peer_clouds.waiting() > 0 || self.candidates.len() > 0
+    }
+
+    /// Whether this robot still has loop sets or frames to state again (see `host::repeats`).
+    pub fn restating(&self) -> bool {
+        self.announced.pending() || self.frame_repeats.pending()
     }
 
     /// What this robot did with its peers' requests for its clouds.

@@ -18,7 +18,8 @@ use crate::summary::RunSummary;
 /// Rounds of message delivery after each step, so a request and its reply complete within one step.
 const DELIVERY_ROUNDS: usize = 4;
 
-/// Most delivery rounds after the sources end, while requested clouds are still missing.
+/// Most delivery rounds after the sources end, while requested clouds are still missing or loops and
+/// frames are still being stated again.
 const DRAIN_ROUNDS: usize = 20;
 
 impl Fleet {
@@ -56,9 +57,13 @@ impl Fleet {
             progress(done);
         }
         // Let the last messages arrive: advance the simulated clock past the link latency, asking again
-        // for clouds still missing (over a lossy link, for up to `DRAIN_ROUNDS` retry periods).
+        // for clouds still missing and stating loops and frames again (over a lossy link, for up to
+        // `DRAIN_ROUNDS` retry periods).
         for round in 0..DRAIN_ROUNDS {
-            let waiting = self.robots.iter().any(|robot| robot.awaits_clouds());
+            let waiting = self
+                .robots
+                .iter()
+                .any(|robot| robot.awaits_clouds() || robot.restating());
             if round >= DELIVERY_ROUNDS && !waiting {
                 break;
             }

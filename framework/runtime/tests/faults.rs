@@ -188,6 +188,28 @@ fn thirty_percent_loss_still_finds_inter_robot_loops() {
         involving(&loops, 0) >= 3 && involving(&loops, 2) >= 3,
         "too few inter-robot loops under 30% loss: {loops:?}"
     );
+    // A lost announcement is stated again: every loop a robot found and kept reached its peer.
+    for robot in &lossy.robots {
+        for (id, closure) in robot.accepted_loops() {
+            if closure.target.robot == closure.source.robot || robot.loop_from_peer(*id) {
+                continue;
+            }
+            let peer = if closure.target.robot == robot.robot() {
+                closure.source.robot
+            } else {
+                closure.target.robot
+            };
+            let told = &lossy.robots[peer.0 as usize];
+            assert!(
+                told.knows_loop(closure.target, closure.source),
+                "robot {} never heard of the loop {} ↔ {} that robot {} kept",
+                peer,
+                closure.target,
+                closure.source,
+                robot.robot()
+            );
+        }
+    }
 }
 
 /// A link that delays every message by 1.5 s: robots that pass a place within that delay of each other

@@ -134,6 +134,7 @@ impl RobotHost {
         let robot = self.robot;
         let due = self.peer_clouds.due(now_nanos, retry_nanos);
         outbox.extend(due.into_iter().map(|id| cloud_request(robot, id)));
+        outbox.extend(self.restatements(now_nanos));
         Ok(outbox)
     }
 }

@@ -61,6 +61,14 @@ impl FrameBook {
         &self.own
     }
 
+    /// This robot's current frames as a `Frames` message states them.
+    pub(crate) fn own_list(&self) -> Vec<(RobotId, Pose, u32)> {
+        self.own
+            .iter()
+            .map(|(robot, (pose, loops))| (*robot, *pose, *loops))
+            .collect()
+    }
+
     /// The frames to send now, when they differ from the ones last sent (a frame appeared, left, or
     /// moved); they count as sent.
     pub(crate) fn take_due(&mut self) -> Option<Vec<(RobotId, Pose, u32)>> {
@@ -80,12 +88,7 @@ impl FrameBook {
             .iter()
             .map(|(robot, (pose, _))| (*robot, *pose))
             .collect();
-        Some(
-            self.own
-                .iter()
-                .map(|(robot, (pose, loops))| (*robot, *pose, *loops))
-                .collect(),
-        )
+        Some(self.own_list())
     }
 
     /// Keeps `from`'s report, replacing its previous one.

@@ -127,6 +127,7 @@ impl RobotHost {
         };
         let started = std::time::Instant::now();
         let me = self.robot;
+        let _span = tracing::debug_span!("verifier", robot = %me).entered();
         let book = &self.frames;
         let through = move |a, b| book.through_others(me, a, b);
         let graph = HostGraph {
@@ -190,20 +191,24 @@ impl RobotHost {
             self.loops.accept(closure);
             changed = true;
         }
-        // One message per loop, so each goes to the one peer it concerns.
+        // One message per loop, so each goes to the one peer it concerns; the peer's whole set is
+        // stated again later, in case this one is lost.
+        let now_nanos = self.now_nanos();
         for closure in &accepted_messages {
             outbox.push(crate::messages::loops_message(
                 self.robot,
                 std::slice::from_ref(closure),
                 &[],
             ));
+            let peer = self.peer_of(closure);
+            self.announced
+                .accepted(peer, (closure.target, closure.source), now_nanos);
         }
         for closure in &retracted_messages {
-            outbox.push(crate::messages::loops_message(
-                self.robot,
-                &[],
-                &[(closure.target, closure.source)],
-            ));
+            let pair = (closure.target, closure.source);
+            outbox.push(crate::messages::loops_message(self.robot, &[], &[pair]));
+            let peer = self.peer_of(closure);
+            self.announced.retracted(peer, pair, now_nanos);
         }
         if changed {
             self.optimize(config)?;

@@ -57,7 +57,14 @@ impl RobotHost {
     pub(crate) fn frames_message_if_due(&mut self) -> Option<Message> {
         self.refresh_frames();
         let frames = self.frames.take_due()?;
-        Some(Message::Frames(Frames {
+        let now_nanos = self.now_nanos();
+        self.frame_repeats.changed((), now_nanos);
+        Some(self.frames_message(frames))
+    }
+
+    /// A `Frames` message stating `frames` (robot, own_first_from_robot_first, loops).
+    pub(crate) fn frames_message(&self, frames: Vec<(RobotId, Pose, u32)>) -> Message {
+        Message::Frames(Frames {
             robot: self.robot,
             frames: frames
                 .into_iter()
@@ -67,7 +74,7 @@ impl RobotHost {
                     loops,
                 })
                 .collect(),
-        }))
+        })
     }
 
     /// Keeps a peer's frames and lets the verifier re-judge the loops against the new cycles.

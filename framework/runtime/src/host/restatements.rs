@@ -1,0 +1,53 @@
+//! The repeats at work (see `repeats`): on the budget's upkeep, each peer whose loop set changed lately
+//! is sent its whole set again (accepted and retracted), and the robot's frames are sent again after
+//! they changed.
+
+use skid_core::RobotId;
+use skid_core::slots::LoopClosure;
+use skid_protocol::Message;
+
+use super::RobotHost;
+use crate::messages::loops_message;
+
+/// Most loops stated in one message: a long set goes in several, each well under any message limit.
+const LOOPS_PER_MESSAGE: usize = 64;
+
+impl RobotHost {
+    /// The other robot of an inter-robot loop.
+    pub(crate) fn peer_of(&self, closure: &LoopClosure) -> RobotId {
+        if closure.target.robot == self.robot {
+            closure.source.robot
+        } else {
+            closure.target.robot
+        }
+    }
+
+    /// The loop sets and frames due to be sent again at `now_nanos`.
+    pub(crate) fn restatements(&mut self, now_nanos: u64) -> Vec<Message> {
+        let mut outbox = Vec::new();
+        for peer in self.announced.take_due(now_nanos) {
+            let accepted: Vec<LoopClosure> = self
+                .loops
+                .accepted()
+                .iter()
+                .filter(|(id, closure)| {
+                    closure.is_inter_robot()
+                        && !self.loops.is_from_peer(**id)
+                        && self.peer_of(closure) == peer
+                })
+                .map(|(_, closure)| closure.clone())
+                .collect();
+            let retracted = self.announced.retracted_with(peer);
+            for chunk in accepted.chunks(LOOPS_PER_MESSAGE) {
+                outbox.push(loops_message(self.robot, chunk, &[]));
+            }
+            for chunk in retracted.chunks(LOOPS_PER_MESSAGE) {
+                outbox.push(loops_message(self.robot, &[], chunk));
+            }
+        }
+        if !self.frame_repeats.take_due(now_nanos).is_empty() {
+            outbox.push(self.frames_message(self.frames.own_list()));
+        }
+        outbox
+    }
+}
