@@ -32,6 +32,9 @@ pub fn adjoint(pose: &Pose) -> Matrix6<f64> {
 struct Link {
     world_from_sensor: Pose,
     step_covariance: Information,
+    /// Whether `step_covariance` is the step's own (false for a keyframe placed by its pose alone,
+    /// before the step into it arrived).
+    step_known: bool,
     /// First keyframe of the gap-free run this keyframe belongs to.
     run_start: u32,
     /// `P_k` of the module doc, in the odometry frame.
@@ -48,6 +51,31 @@ impl OdometryChains {
     /// Records keyframe `id` at `world_from_sensor` (in its robot's odometry frame), with the covariance
     /// of the step from keyframe `id.index - 1` (ignored for the first keyframe).
     pub fn insert(&mut self, id: KeyframeId, world_from_sensor: Pose, step_covariance: Information) {
+        self.insert_link(id, world_from_sensor, step_covariance, true);
+    }
+
+    /// Records keyframe `id` at `world_from_sensor` before the step into it is known (a peer's message
+    /// that carried the step was lost): the step counts as certain, `step_covariance` of 1 µ per axis,
+    /// until [`OdometryChains::insert`] gives the real one.
+    pub fn insert_without_step(&mut self, id: KeyframeId, world_from_sensor: Pose) {
+        self.insert_link(id, world_from_sensor, Information::identity() * 1e-6, false);
+    }
+
+    /// Whether the step into keyframe `id` is known (its own covariance, not a placeholder).
+    pub fn has_step(&self, id: KeyframeId) -> bool {
+        self.chains
+            .get(&id.robot)
+            .and_then(|chain| chain.get(&id.index))
+            .is_some_and(|link| link.step_known)
+    }
+
+    fn insert_link(
+        &mut self,
+        id: KeyframeId,
+        world_from_sensor: Pose,
+        step_covariance: Information,
+        step_known: bool,
+    ) {
         let chain = self.chains.entry(id.robot).or_default();
         let appended = chain.last_key_value().is_none_or(|(&last, _)| id.index > last);
         chain.insert(
@@ -55,6 +83,7 @@ impl OdometryChains {
             Link {
                 world_from_sensor,
                 step_covariance,
+                step_known,
                 run_start: id.index,
                 prefix_covariance: Matrix6::zeros(),
             },

@@ -50,10 +50,16 @@ impl CatchUp {
         let mut current: Option<OdomChain> = None;
         for link in &self.chain {
             match current.as_mut() {
-                Some(run) if run.to_index == link.from_index && run.edges.len() < REPLAY_BATCH => {
-                    run.edges.extend(link.edges.iter().copied());
+                // Chain messages overlap: each repeats the steps before its newest.
+                Some(run)
+                    if (link.from_index..link.to_index).contains(&run.to_index)
+                        && run.edges.len() < REPLAY_BATCH =>
+                {
+                    let repeated = (run.to_index - link.from_index) as usize;
+                    run.edges.extend(link.edges.iter().skip(repeated).copied());
                     run.to_index = link.to_index;
                 }
+                Some(run) if link.from_index >= run.from_index && link.to_index <= run.to_index => {}
                 _ => {
                     if let Some(run) = current.replace(link.clone()) {
                         messages.push(Message::OdomChain(run));
@@ -164,6 +170,35 @@ mod tests {
         for message in &replay {
             message.validate().unwrap();
         }
+    }
+
+    #[test]
+    fn overlapping_chain_messages_replay_each_step_once() {
+        let robot = RobotId(3);
+        let edge = ChainEdge {
+            target_from_source: PoseMsg::from_pose(&Pose::identity()),
+            information: InformationMsg::from_information(&skid_core::Information::identity()),
+        };
+        let mut catch_up = CatchUp::default();
+        // Each message carries the steps into its keyframe from up to three keyframes before.
+        for index in 0..10u32 {
+            let from_index = index.saturating_sub(3);
+            let message = Message::OdomChain(OdomChain {
+                robot,
+                from_index,
+                to_index: index,
+                edges: vec![edge; (index - from_index) as usize],
+                world_from_first: PoseMsg::from_pose(&Pose::identity()),
+            });
+            catch_up.record(robot, &[message]);
+        }
+        let replay = catch_up.replay_for(RobotId(0));
+        let [Message::OdomChain(chain)] = replay.as_slice() else {
+            panic!("one chain expected, got {replay:?}");
+        };
+        assert_eq!((chain.from_index, chain.to_index), (0, 9));
+        assert_eq!(chain.edges.len(), 9);
+        Message::OdomChain(chain.clone()).validate().unwrap();
     }
 
     #[test]

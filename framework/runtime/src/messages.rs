@@ -4,7 +4,8 @@
 use std::collections::BTreeMap;
 
 use skid_core::slots::{DescriptorBuf, Destination, LoopClosure};
-use skid_core::{Information, Keyframe, KeyframeId, Pose, RobotId};
+use skid_core::{Keyframe, KeyframeId, RobotId};
+use skid_geometry::OdometryChains;
 use skid_protocol::{
     ChainEdge, CloudRequest, DescriptorBatch, DescriptorEncoding, DescriptorEntry, DescriptorValues,
     HeldKeyframe, InformationMsg, LoopMsg, Loops, Message, OdomChain, PoseMsg,
@@ -40,32 +41,35 @@ pub fn descriptor_message(
     })
 }
 
-/// The odometry step into keyframe `index` (from `index - 1`; none for the first keyframe), with the
-/// pose of the chain's first keyframe so a peer can place the chain before any loop.
-pub fn chain_message(
-    robot: RobotId,
-    index: u32,
-    world_from_keyframe: &Pose,
-    step: Pose,
-    covariance: Information,
-) -> Message {
-    let (from_index, edges) = match index {
-        0 => (0, Vec::new()),
-        _ => (
-            index - 1,
-            vec![ChainEdge {
-                target_from_source: PoseMsg::from_pose(&step),
-                information: InformationMsg::from_information(&information_from_covariance(&covariance)),
-            }],
-        ),
-    };
-    Message::OdomChain(OdomChain {
+/// Odometry steps each chain message carries: the step into its keyframe and the ones before it, so a
+/// peer that lost a message (or two) in a row still learns every step from the next one.
+pub const CHAIN_STEPS_PER_MESSAGE: u32 = 3;
+
+/// The odometry steps into keyframe `index` from up to [`CHAIN_STEPS_PER_MESSAGE`] keyframes before it
+/// (none for the first keyframe), with the pose of the chain's first keyframe so a peer can place the
+/// chain before any loop; `None` when `chains` lacks one of them.
+pub fn chain_message(chains: &OdometryChains, robot: RobotId, index: u32) -> Option<Message> {
+    let from_index = index.saturating_sub(CHAIN_STEPS_PER_MESSAGE);
+    let of = |index| KeyframeId { robot, index };
+    let world_from_first = chains.pose(of(from_index))?;
+    let mut previous = world_from_first;
+    let mut edges = Vec::new();
+    for step_index in from_index + 1..=index {
+        let pose = chains.pose(of(step_index))?;
+        let covariance = chains.step_covariance(of(step_index))?;
+        edges.push(ChainEdge {
+            target_from_source: PoseMsg::from_pose(&(previous.inverse() * pose)),
+            information: InformationMsg::from_information(&information_from_covariance(&covariance)),
+        });
+        previous = pose;
+    }
+    Some(Message::OdomChain(OdomChain {
         robot,
         from_index,
         to_index: index,
         edges,
-        world_from_first: PoseMsg::from_pose(&(world_from_keyframe * step.inverse())),
-    })
+        world_from_first: PoseMsg::from_pose(&world_from_first),
+    }))
 }
 
 /// Where a message goes: broadcasts to every peer, requests and loops to the robot concerned.

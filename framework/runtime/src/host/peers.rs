@@ -169,7 +169,7 @@ impl RobotHost {
             index: chain.from_index,
         };
         if !self.chains.contains(first) {
-            self.chains.insert(first, pose, Information::identity() * 1e-6);
+            self.chains.insert_without_step(first, pose);
         }
         for (offset, edge) in chain.edges.iter().enumerate() {
             let (Some(step), Some(information)) = (
@@ -181,6 +181,10 @@ impl RobotHost {
             let index = chain.from_index + offset as u32 + 1;
             let previous = pose;
             pose *= step;
+            // Chains overlap (each repeats the steps before its newest): a step held already is skipped.
+            if self.chains.has_step(KeyframeId { robot, index }) {
+                continue;
+            }
             let covariance = information
                 .try_inverse()
                 .unwrap_or_else(|| Information::identity() * 1e-4);
@@ -317,6 +321,7 @@ impl RobotHost {
         outbox: &mut Vec<Message>,
     ) -> Result<(), RuntimeError> {
         if self.chains.pose(closure.target).is_none() || self.chains.pose(closure.source).is_none() {
+            tracing::debug!(robot = %self.robot, target = %closure.target, source = %closure.source, "peer loop waits for odometry");
             self.loops.await_poses(closure.id);
             return Ok(());
         }

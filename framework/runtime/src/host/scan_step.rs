@@ -127,13 +127,7 @@ impl RobotHost {
             .insert(id, keyframe.world_from_sensor, step_covariance);
         let keyframe = Arc::new(keyframe);
         self.own.push_keyframe(Arc::clone(&keyframe));
-        outbox.push(crate::messages::chain_message(
-            self.robot,
-            id.index,
-            &keyframe.world_from_sensor,
-            step,
-            step_covariance,
-        ));
+        outbox.extend(crate::messages::chain_message(&self.chains, self.robot, id.index));
         if let Some(frames) = self.frames_message_if_due() {
             outbox.push(frames);
         }
