@@ -105,6 +105,14 @@ impl Verifier for PcmVerifier {
         };
         // A loop of a leading set that is not earned yet waits, neither accepted nor rejected.
         let waits = update.pending || (update.withheld.is_some() && update.in_leading_set);
+        if let Some(reason) = &update.withheld {
+            tracing::debug!(
+                target = %candidate.closure.target,
+                source = %candidate.closure.source,
+                loops = update.clique_size,
+                "PCM: the leading consistent set is not granted yet: {reason}"
+            );
+        }
         if !waits && !update.accepted.contains(&id) {
             verdict.rejected.push((
                 id,
