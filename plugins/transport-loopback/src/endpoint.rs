@@ -4,7 +4,7 @@ use std::any::Any;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use skid_core::slots::{Datagram, Destination, PeerInfo, SimulatedNetwork, Transport};
+use skid_core::slots::{Datagram, Destination, NetworkTotals, PeerInfo, SimulatedNetwork, Transport};
 use skid_core::{PluginError, PluginResult, RobotId};
 
 use crate::hub::{ClockMode, HubState, LoopbackHub};
@@ -179,6 +179,24 @@ impl SimulatedNetwork for LoopbackHub {
 
     fn set_position(&self, robot: RobotId, position_m: [f64; 3]) {
         LoopbackHub::set_position(self, robot, position_m);
+    }
+
+    fn totals(&self) -> NetworkTotals {
+        let stats = self.stats();
+        let mut totals = NetworkTotals::default();
+        let mut latency_sum_ms = 0.0;
+        for link in &stats.links {
+            totals.sent_messages += link.sent_messages;
+            totals.delivered_messages += link.delivered_messages;
+            totals.lost += link.dropped_lost;
+            totals.queue_full += link.dropped_queue_full;
+            totals.unreachable += link.dropped_out_of_range + link.dropped_unreachable;
+            latency_sum_ms += link.latency_sum_ms;
+        }
+        if totals.delivered_messages > 0 {
+            totals.mean_latency_ms = latency_sum_ms / totals.delivered_messages as f64;
+        }
+        totals
     }
 
     fn as_any(&self) -> &dyn Any {

@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::{PluginError, RobotId};
 
 use crate::link::LinkModel;
+use crate::radio::Radio;
 use crate::stats::{HubStats, LinkStats};
 
 /// Where the hub's time comes from.
@@ -98,8 +99,8 @@ pub(crate) struct HubState {
     next_serial: u64,
     pub inboxes: BTreeMap<RobotId, Inbox>,
     positions: BTreeMap<RobotId, [f64; 3]>,
-    /// Radio busy-until time per sender (bandwidth is a property of the sender's radio).
-    radio_free_at_nanos: BTreeMap<RobotId, u64>,
+    /// Each sender's radio (bandwidth is a property of the sender's radio).
+    radios: BTreeMap<RobotId, Radio>,
     links: BTreeMap<(RobotId, RobotId), LinkState>,
     cut: BTreeSet<(RobotId, RobotId)>,
     isolated: BTreeSet<RobotId>,
@@ -154,7 +155,7 @@ impl LoopbackHub {
                     next_serial: 0,
                     inboxes: BTreeMap::new(),
                     positions: BTreeMap::new(),
-                    radio_free_at_nanos: BTreeMap::new(),
+                    radios: BTreeMap::new(),
                     links: BTreeMap::new(),
                     cut: BTreeSet::new(),
                     isolated: BTreeSet::new(),
@@ -340,18 +341,17 @@ impl LoopbackHub {
         } else {
             0
         };
-        let free_at = state
-            .radio_free_at_nanos
-            .get(&from)
-            .copied()
-            .unwrap_or(0)
-            .max(now);
-        let queue_full = free_at - now > millis_to_nanos(model.max_queue_ms);
-        let done_at = free_at + airtime_nanos;
         let any_in_range = qualities.iter().any(Option::is_some);
-        if any_in_range && !queue_full {
-            state.radio_free_at_nanos.insert(from, done_at);
-        }
+        let sparse = payload.len() <= model.sparse_bytes;
+        let max_wait_nanos = millis_to_nanos(model.max_queue_ms);
+        let sent = if any_in_range {
+            let radio = state.radios.entry(from).or_default();
+            radio.send(now, airtime_nanos, sparse, max_wait_nanos)
+        } else {
+            Some(now + airtime_nanos)
+        };
+        let queue_full = sent.is_none();
+        let done_at = sent.unwrap_or(now);
         let mut delivered_any = false;
         for (&to, quality) in receivers.iter().zip(&qualities) {
             let connected = Self::is_connected(&state, from, to);

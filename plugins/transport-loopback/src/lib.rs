@@ -14,6 +14,7 @@
 mod endpoint;
 mod hub;
 mod link;
+mod radio;
 mod stats;
 
 use serde::{Deserialize, Serialize};

@@ -58,6 +58,9 @@ pub struct LinkModel {
     pub range_curve: Vec<RangePoint>,
     /// A message that would wait longer than this in the sender's radio queue is dropped (tail drop).
     pub max_queue_ms: f64,
+    /// Messages up to this many bytes go before larger ones queued in the sender's radio, as a
+    /// fair-queuing Wi-Fi driver serves sparse flows first; 0 keeps one first-in, first-out queue.
+    pub sparse_bytes: usize,
 }
 
 impl Default for LinkModel {
@@ -79,6 +82,7 @@ impl Default for LinkModel {
                 RangePoint::new(60.0, 0.05, 50.0, 0.2),
             ],
             max_queue_ms: 5_000.0,
+            sparse_bytes: 1500,
         }
     }
 }

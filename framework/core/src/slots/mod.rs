@@ -18,4 +18,4 @@ pub use backend::{
 pub use descriptor::{Descriptor, DescriptorBuf, DescriptorIndex, PlaceCandidate};
 pub use frontend::{Odometry, OdometryUpdate, Source};
 pub use registration::{CoarseAlignment, CoarseRegistration, FineAlignment, FineRegistration, PreparedCloud};
-pub use transport::{Datagram, Destination, PeerInfo, SimulatedNetwork, Transport};
+pub use transport::{Datagram, Destination, NetworkTotals, PeerInfo, SimulatedNetwork, Transport};

@@ -74,6 +74,25 @@ pub trait SimulatedNetwork: Send + Sync {
     /// Where `robot` is, metres in any frame common to the robots, for range-dependent links.
     fn set_position(&self, robot: RobotId, position_m: [f64; 3]);
 
+    /// What the network did with the messages so far, summed over its links.
+    fn totals(&self) -> NetworkTotals;
+
     /// The concrete network, for tests and tools that know it (fault injection, link statistics).
     fn as_any(&self) -> &dyn Any;
+}
+
+/// What a simulated network did with the messages, summed over its directed links: a broadcast to
+/// fifteen peers counts fifteen times.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct NetworkTotals {
+    pub sent_messages: u64,
+    pub delivered_messages: u64,
+    /// Lost on the air (the link model's loss at the robots' distance).
+    pub lost: u64,
+    /// Dropped because the sender's radio queue already held more than the longest wait.
+    pub queue_full: u64,
+    /// Dropped beyond the link's range, on a cut link or to a robot not attached.
+    pub unreachable: u64,
+    /// Mean one-way latency of the delivered messages (queueing, airtime and latency), milliseconds.
+    pub mean_latency_ms: f64,
 }

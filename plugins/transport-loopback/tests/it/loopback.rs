@@ -51,12 +51,14 @@ fn conformance_simulated_ideal_link() {
 fn bandwidth_and_latency_set_the_arrival_time() {
     let link = LinkModel {
         jitter_ms: 0.0,
+        sparse_bytes: 0,
         ..LinkModel::default()
     };
     let hub = sim_hub(link, 0);
     let mut a = hub.endpoint(RobotId(0)).unwrap();
     let mut b = hub.endpoint(RobotId(1)).unwrap();
-    // 125 kB at 1 Mbit/s take 1 s of airtime, then 28 ms of latency; the second waits for the first.
+    // 125 kB at 1 Mbit/s take 1 s of airtime, then 28 ms of latency; in one queue, the second waits for
+    // the first.
     a.send(Destination::Robot(RobotId(1)), &vec![7u8; 125_000])
         .unwrap();
     a.send(Destination::Robot(RobotId(1)), &[1u8; 125]).unwrap();
@@ -72,6 +74,36 @@ fn bandwidth_and_latency_set_the_arrival_time() {
     let link = stats.link(RobotId(0), RobotId(1)).unwrap();
     assert_eq!(link.delivered_messages, 2);
     assert!((link.latency_max_ms - 1029.0).abs() < 1e-6);
+}
+
+#[test]
+fn a_small_message_overtakes_a_large_one_in_the_radio_queue() {
+    let link = LinkModel {
+        jitter_ms: 0.0,
+        ..LinkModel::default()
+    };
+    let hub = sim_hub(link, 0);
+    let mut a = hub.endpoint(RobotId(0)).unwrap();
+    let mut b = hub.endpoint(RobotId(1)).unwrap();
+    // The 125-byte message (1 ms of airtime) goes before the 125 kB one on the air; the second 125 kB
+    // message waits for the first and for the small one's airtime.
+    a.send(Destination::Robot(RobotId(1)), &vec![7u8; 125_000])
+        .unwrap();
+    a.send(Destination::Robot(RobotId(1)), &[1u8; 125]).unwrap();
+    a.send(Destination::Robot(RobotId(1)), &vec![8u8; 125_000])
+        .unwrap();
+    hub.advance_to(29 * MS);
+    let first = payloads(&mut b);
+    assert_eq!(first.len(), 1);
+    assert_eq!(first[0].1.len(), 125);
+    hub.advance_to(1_027 * MS);
+    assert!(payloads(&mut b).is_empty());
+    hub.advance_to(1_028 * MS);
+    assert_eq!(payloads(&mut b).len(), 1);
+    hub.advance_to(2_028 * MS);
+    assert!(payloads(&mut b).is_empty());
+    hub.advance_to(2_029 * MS);
+    assert_eq!(payloads(&mut b).len(), 1);
 }
 
 /// Mean one-way latency of a 400-byte (SOLiD) and a 4.8 kB (Scan Context) message at `distance_m`.
