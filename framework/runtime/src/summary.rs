@@ -3,6 +3,7 @@
 use std::collections::BTreeMap;
 
 use serde::Serialize;
+use skid_core::slots::NetworkTotals;
 use skid_core::{Pose, Slot};
 use skid_protocol::CountersSnapshot;
 
@@ -68,6 +69,9 @@ pub struct RunSummary {
     pub robots: Vec<RobotSummary>,
     pub wall_s: f64,
     pub slots: BTreeMap<String, String>,
+    /// What the simulated network did with the messages; absent on a real network.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub network: Option<NetworkTotals>,
     /// Why the run stopped before its sources ended (a signal, a plugin error); absent for a complete
     /// run. The outputs of an interrupted run hold what existed at the stop.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -86,6 +90,7 @@ impl RunSummary {
                 .iter()
                 .map(|&slot| (slot.key().to_owned(), fleet.config.slot(slot).plugin.clone()))
                 .collect(),
+            network: fleet.network.as_ref().map(|network| network.totals()),
             interrupted: None,
         }
     }

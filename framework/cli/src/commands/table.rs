@@ -163,6 +163,20 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
                 .map_or_else(|| "-".to_owned(), |bytes| human_bytes(bytes as u64)),
         );
     }
+    if let Some(network) = &summary.network {
+        let share = |count: u64| 100.0 * count as f64 / network.sent_messages.max(1) as f64;
+        let _ = writeln!(
+            text,
+            "  simulated links: {} messages to peers, {:.1}% delivered (mean {:.0} ms), {:.1}% lost on the air, \
+             {:.1}% dropped by full radio queues, {:.1}% out of reach",
+            network.sent_messages,
+            share(network.delivered_messages),
+            network.mean_latency_ms,
+            share(network.lost),
+            share(network.queue_full),
+            share(network.unreachable),
+        );
+    }
     text.push_str(&table.render());
     for note in notes {
         let _ = writeln!(text, "  note: {note}");
