@@ -304,6 +304,11 @@ impl RobotHost {
         self.announced.pending() || self.frame_repeats.pending()
     }
 
+    /// Peer clouds that arrived while a copy was held already.
+    pub fn clouds_received_again(&self) -> u64 {
+        self.peer_clouds.received_again()
+    }
+
     /// What this robot did with its peers' requests for its clouds.
     pub fn cloud_serving(&self) -> CloudServing {
         self.served.counts()

@@ -34,6 +34,8 @@ pub struct RobotSummary {
     pub messages: CountersSnapshot,
     /// What the robot did with its peers' requests for its keyframe clouds (each sent once per peer).
     pub clouds_served: CloudServing,
+    /// Peer clouds that arrived while a copy was held already (the link carried that cloud twice).
+    pub clouds_received_again: u64,
     /// Messages the transport refused before the protocol saw them (see `Transport::refusals`).
     pub transport_refusals: BTreeMap<String, u64>,
     /// Well-formed peer messages the robot refused, by class (see `peer_faults.rs`).
@@ -130,6 +132,7 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
             .collect(),
         loops: host.loop_stats(),
         clouds_served: host.cloud_serving(),
+        clouds_received_again: host.clouds_received_again(),
         estimated_path_length_m: path_length_m,
         ate_first_pose_aligned_m: ate_first_pose_aligned(&trajectory, &truth),
         messages: host.protocol().counters().snapshot(),

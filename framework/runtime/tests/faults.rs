@@ -536,6 +536,11 @@ fn clouds_crossed_each_link_once_and_the_budget_held(fleet: &Fleet, summary: &Ru
             "robot {} sent {sent} cloud messages: {served:?}",
             robot.robot
         );
+        assert_eq!(
+            robot.clouds_received_again, 0,
+            "robot {} received a cloud twice",
+            robot.robot
+        );
         let waiting = robot.loops.queued + robot.loops.awaiting_cloud;
         assert!(
             waiting <= budget,

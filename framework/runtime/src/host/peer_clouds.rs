@@ -44,6 +44,8 @@ pub(crate) struct PeerClouds {
     given_up: BTreeSet<KeyframeId>,
     /// Candidates waiting for a cloud, each with when it began to wait.
     waiting: Vec<(PendingCandidate, u64)>,
+    /// Clouds that arrived while a copy was held already (the link carried them twice).
+    received_again: u64,
 }
 
 impl PeerClouds {
@@ -128,9 +130,15 @@ impl PeerClouds {
         again
     }
 
-    /// Checks that a cloud arriving for `id` is wanted, before it is decoded.
-    pub(crate) fn check_wanted(&self, id: KeyframeId) -> Result<(), CloudRefusal> {
+    /// Clouds that arrived while a copy was held already.
+    pub(crate) fn received_again(&self) -> u64 {
+        self.received_again
+    }
+
+    /// Checks that a cloud arriving for `id` is wanted, before it is decoded; a second copy is counted.
+    pub(crate) fn check_wanted(&mut self, id: KeyframeId) -> Result<(), CloudRefusal> {
         if self.held.contains_key(&id) {
+            self.received_again += 1;
             Err(CloudRefusal::AlreadyHeld)
         } else if !self.requested.contains_key(&id) && !self.given_up.contains(&id) {
             Err(CloudRefusal::Unrequested)
@@ -194,6 +202,7 @@ mod tests {
             clouds.check_wanted(keyframe(1, 7)),
             Err(CloudRefusal::AlreadyHeld)
         );
+        assert_eq!(clouds.received_again(), 1);
         assert!(clouds.due(1000, period).is_empty());
     }
 
