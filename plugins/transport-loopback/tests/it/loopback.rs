@@ -47,21 +47,28 @@ fn conformance_simulated_ideal_link() {
     skid_testkit::transport::check_transport(&mut a, &mut b);
 }
 
-#[test]
-fn bandwidth_and_latency_set_the_arrival_time() {
+/// A hub on the default link without jitter, with radio queues split at `sparse_bytes`, after robot 0
+/// sent robot 1 a 125 kB message and then a 125-byte one.
+fn large_then_small(sparse_bytes: usize) -> (LoopbackHub, LoopbackEndpoint, LoopbackEndpoint) {
     let link = LinkModel {
         jitter_ms: 0.0,
-        sparse_bytes: 0,
+        sparse_bytes,
         ..LinkModel::default()
     };
     let hub = sim_hub(link, 0);
     let mut a = hub.endpoint(RobotId(0)).unwrap();
-    let mut b = hub.endpoint(RobotId(1)).unwrap();
-    // 125 kB at 1 Mbit/s take 1 s of airtime, then 28 ms of latency; in one queue, the second waits for
-    // the first.
+    let b = hub.endpoint(RobotId(1)).unwrap();
     a.send(Destination::Robot(RobotId(1)), &vec![7u8; 125_000])
         .unwrap();
     a.send(Destination::Robot(RobotId(1)), &[1u8; 125]).unwrap();
+    (hub, a, b)
+}
+
+#[test]
+fn bandwidth_and_latency_set_the_arrival_time() {
+    // 125 kB at 1 Mbit/s take 1 s of airtime, then 28 ms of latency; in one queue, the second waits for
+    // the first.
+    let (hub, _a, mut b) = large_then_small(0);
     hub.advance_to(1_027 * MS);
     assert!(payloads(&mut b).is_empty());
     hub.advance_to(1_028 * MS);
@@ -78,18 +85,9 @@ fn bandwidth_and_latency_set_the_arrival_time() {
 
 #[test]
 fn a_small_message_overtakes_a_large_one_in_the_radio_queue() {
-    let link = LinkModel {
-        jitter_ms: 0.0,
-        ..LinkModel::default()
-    };
-    let hub = sim_hub(link, 0);
-    let mut a = hub.endpoint(RobotId(0)).unwrap();
-    let mut b = hub.endpoint(RobotId(1)).unwrap();
-    // The 125-byte message (1 ms of airtime) goes before the 125 kB one on the air; the second 125 kB
+    // The 125-byte message (1 ms of airtime) goes before the 125 kB one on the air; a second 125 kB
     // message waits for the first and for the small one's airtime.
-    a.send(Destination::Robot(RobotId(1)), &vec![7u8; 125_000])
-        .unwrap();
-    a.send(Destination::Robot(RobotId(1)), &[1u8; 125]).unwrap();
+    let (hub, mut a, mut b) = large_then_small(LinkModel::default().sparse_bytes);
     a.send(Destination::Robot(RobotId(1)), &vec![8u8; 125_000])
         .unwrap();
     hub.advance_to(29 * MS);
