@@ -84,14 +84,19 @@ pub fn destination(robot: RobotId, message: &Message) -> Destination {
             .first()
             .map(|l| (l.target, l.source))
             .or_else(|| loops.retracted.first().copied())
-            .map_or(Destination::AllPeers, |(target, source)| {
-                Destination::Robot(if target.robot == robot {
-                    source.robot
-                } else {
-                    target.robot
-                })
+            .map_or(Destination::AllPeers, |pair| {
+                Destination::Robot(other_robot(robot, pair))
             }),
         _ => Destination::AllPeers,
+    }
+}
+
+/// The robot at the other end of the loop between `target` and `source`, seen from `robot`.
+pub fn other_robot(robot: RobotId, (target, source): (KeyframeId, KeyframeId)) -> RobotId {
+    if target.robot == robot {
+        source.robot
+    } else {
+        target.robot
     }
 }
 

@@ -200,14 +200,14 @@ impl RobotHost {
                 std::slice::from_ref(closure),
                 &[],
             ));
-            let peer = self.peer_of(closure);
-            self.announced
-                .accepted(peer, (closure.target, closure.source), now_nanos);
+            let pair = (closure.target, closure.source);
+            let peer = crate::messages::other_robot(self.robot, pair);
+            self.announced.accepted(peer, pair, now_nanos);
         }
         for closure in &retracted_messages {
             let pair = (closure.target, closure.source);
             outbox.push(crate::messages::loops_message(self.robot, &[], &[pair]));
-            let peer = self.peer_of(closure);
+            let peer = crate::messages::other_robot(self.robot, pair);
             self.announced.retracted(peer, pair, now_nanos);
         }
         if changed {

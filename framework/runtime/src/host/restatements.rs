@@ -2,26 +2,16 @@
 //! is sent its whole set again (accepted and retracted), and the robot's frames are sent again after
 //! they changed.
 
-use skid_core::RobotId;
 use skid_core::slots::LoopClosure;
 use skid_protocol::Message;
 
 use super::RobotHost;
-use crate::messages::loops_message;
+use crate::messages::{loops_message, other_robot};
 
 /// Most loops stated in one message: a long set goes in several, each well under any message limit.
 const LOOPS_PER_MESSAGE: usize = 64;
 
 impl RobotHost {
-    /// The other robot of an inter-robot loop.
-    pub(crate) fn peer_of(&self, closure: &LoopClosure) -> RobotId {
-        if closure.target.robot == self.robot {
-            closure.source.robot
-        } else {
-            closure.target.robot
-        }
-    }
-
     /// The loop sets and frames due to be sent again at `now_nanos`.
     pub(crate) fn restatements(&mut self, now_nanos: u64) -> Vec<Message> {
         let mut outbox = Vec::new();
@@ -33,7 +23,7 @@ impl RobotHost {
                 .filter(|(id, closure)| {
                     closure.is_inter_robot()
                         && !self.loops.is_from_peer(**id)
-                        && self.peer_of(closure) == peer
+                        && other_robot(self.robot, (closure.target, closure.source)) == peer
                 })
                 .map(|(_, closure)| closure.clone())
                 .collect();
