@@ -1,7 +1,14 @@
 //! A 200 Hz IMU in the sensor frame: specific force and angular rate from the trajectory, with white
 //! noise and bias random walk, the standard continuous-time model used by Kalibr and most VIO/LIO work
 //! (Furgale et al., IROS 2013; Trawny and Roumeliotis, "Indirect Kalman filter for 3D attitude
-//! estimation", 2005). Default densities are those of a mid-grade MEMS unit (ADIS16448 class).
+//! estimation", 2005).
+//!
+//! The default is the MicroStrain 3DM-GX5-25 of the paper's rover, at its data sheet's values
+//! ([`ImuNoise::gx5_25`]); [`ImuNoise::cv7`] is the 3DM-CV7-AHRS of its quadruped. Data sheets give a
+//! bias *instability* B (the floor of the Allan deviation), not a random walk; SKiD takes the random
+//! walk K whose Allan deviation `K·√(τ/3)` reaches B at τ = 1000 s, the end of a MEMS unit's flat
+//! floor: `K = B·√(3 / 1000 s)`. The turn-on bias is drawn once per unit with the data sheet's
+//! initial bias error as its 1σ.
 
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -25,17 +32,58 @@ pub struct ImuNoise {
     pub gyro_noise_density: f64,
     /// Gyroscope bias random walk, rad/s²/√Hz.
     pub gyro_bias_random_walk: f64,
+    /// 1σ of the accelerometer's bias at power-on, m/s².
+    pub accel_turn_on_bias: f64,
+    /// 1σ of the gyroscope's bias at power-on, rad/s.
+    pub gyro_turn_on_bias: f64,
+}
+
+/// Standard gravity, for data sheets in g.
+const G_MPS2: f64 = 9.80665;
+/// `K = B·√(3 / τ)` with τ = 1000 s (see the module documentation).
+const RANDOM_WALK_PER_INSTABILITY: f64 = 0.054_772_255_750_516_61;
+
+impl ImuNoise {
+    /// MicroStrain 3DM-GX5-25 data sheet: accelerometer noise density 100 µg/√Hz, bias instability
+    /// ±0.04 mg, initial bias error ±0.002 g; gyroscope noise density 0.005 °/s/√Hz, bias instability
+    /// 8 °/h, initial bias error ±0.04 °/s.
+    pub fn gx5_25() -> Self {
+        Self::from_data_sheet(100e-6, 0.04e-3, 0.002, 0.005, 8.0, 0.04)
+    }
+
+    /// MicroStrain 3DM-CV7-AHRS data sheet: accelerometer noise density 25 µg/√Hz, bias instability
+    /// 0.01 mg; gyroscope noise density 0.0023 °/s/√Hz (angle random walk 0.14 °/√h), bias instability
+    /// 1.5 °/h; initial bias errors taken as the GX5-25's.
+    pub fn cv7() -> Self {
+        Self::from_data_sheet(25e-6, 0.01e-3, 0.002, 0.0023, 1.5, 0.04)
+    }
+
+    /// Densities from a data sheet's units: accelerometer noise density in g/√Hz, bias instability and
+    /// initial bias in g; gyroscope noise density in °/s/√Hz, bias instability in °/h, initial bias
+    /// in °/s.
+    fn from_data_sheet(
+        accel_noise_g: f64,
+        accel_instability_g: f64,
+        accel_initial_g: f64,
+        gyro_noise_dps: f64,
+        gyro_instability_dph: f64,
+        gyro_initial_dps: f64,
+    ) -> Self {
+        Self {
+            rate_hz: 200.0,
+            accel_noise_density: accel_noise_g * G_MPS2,
+            accel_bias_random_walk: accel_instability_g * G_MPS2 * RANDOM_WALK_PER_INSTABILITY,
+            gyro_noise_density: gyro_noise_dps.to_radians(),
+            gyro_bias_random_walk: (gyro_instability_dph / 3600.0).to_radians() * RANDOM_WALK_PER_INSTABILITY,
+            accel_turn_on_bias: accel_initial_g * G_MPS2,
+            gyro_turn_on_bias: gyro_initial_dps.to_radians(),
+        }
+    }
 }
 
 impl Default for ImuNoise {
     fn default() -> Self {
-        Self {
-            rate_hz: 200.0,
-            accel_noise_density: 2.0e-3,
-            accel_bias_random_walk: 3.0e-3,
-            gyro_noise_density: 1.7e-4,
-            gyro_bias_random_walk: 2.0e-5,
-        }
+        Self::gx5_25()
     }
 }
 
@@ -62,12 +110,14 @@ impl ImuSimulator {
             accel_bias_random_walk: 0.0,
             gyro_noise_density: 0.0,
             gyro_bias_random_walk: 0.0,
+            accel_turn_on_bias: 0.0,
+            gyro_turn_on_bias: 0.0,
             ..ImuNoise::default()
         });
-        // Turn-on biases of a few mg and a few tenths of a degree per second, when noise is on.
-        let on = if noise.is_some() { 1.0 } else { 0.0 };
-        let accel_bias = Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * 0.03 * on;
-        let gyro_bias = Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * 0.002 * on;
+        let accel_bias =
+            Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * noise_or_zero.accel_turn_on_bias;
+        let gyro_bias =
+            Vector3::new(rng.gaussian(), rng.gaussian(), rng.gaussian()) * noise_or_zero.gyro_turn_on_bias;
         Self {
             noise: noise_or_zero,
             rng,

@@ -28,6 +28,7 @@ pub mod motion;
 pub mod route;
 pub mod scan;
 pub mod sensor;
+pub mod sensor_errors;
 mod source;
 pub mod trajectory;
 
@@ -38,7 +39,7 @@ pub use motion::MotionSpec;
 pub use route::{Overlap, Route, plan_route};
 pub use scan::{ScanNoise, simulate_sweep};
 pub use sensor::{SENSOR_NAMES, Sensor};
-pub use source::{MAX_ROBOTS, SimConfig, SimSource, register};
+pub use source::{MAX_ROBOTS, NoiseModel, SimConfig, SimSource, register};
 pub use trajectory::Trajectory;
 mod export;
 mod preview;

@@ -2,10 +2,15 @@
 //! scan is distorted exactly like a real one), every ray is cast against the world, and the return is
 //! degraded by range noise, dropouts and spurious returns.
 //!
-//! Effects modelled per ray, each from the ray's own random stream (results never depend on threads):
-//! - range noise: Gaussian, the sensor's σ times `range_noise_scale`;
+//! Effects modelled per ray, each from the ray's own random stream (results never depend on threads);
+//! the data-sheet models are [`crate::sensor_errors`]'s:
+//! - beam angles: the ray leaves along the unit's true beam direction, the point is reported along its
+//!   calibration table's;
+//! - range noise: Gaussian, the data-sheet σ at the return's signal-to-noise ratio, times
+//!   `range_noise_scale`;
 //! - dropouts: the configured rate, plus near-certain loss at grazing incidence (cos θ < 0.05) and
-//!   weak-return loss when albedo · cos θ · (10 m / r)² falls below 0.002 (inverse-square falloff);
+//!   weak-return loss below the sensor's detection threshold (its rated range on an 80 % target);
+//! - mixed returns next to depth edges, from the beam's divergence (spinning sensors);
 //! - spurious returns at the configured rate: half are early returns (dust, rain, glare) somewhere
 //!   along the ray, half multipath reflections that appear 0.5–15 m behind the true surface;
 //! - intensity: Lambertian, albedo · cos θ, with ±5 % uniform noise.
@@ -16,10 +21,11 @@ use skid_core::{Pose, RawPoint};
 use crate::geometry::{Ray, V3};
 use crate::rng::{Rng, combine};
 use crate::sensor::Sensor;
+use crate::sensor_errors::{BeamErrors, detection_probability, mix_depth_edges, range_sigma_m, snr};
 use crate::world::World;
 
 /// Degradations applied to a sweep.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ScanNoise {
     /// Multiplies the sensor's range σ (0 = exact ranges).
     pub range_noise_scale: f64,
@@ -27,24 +33,34 @@ pub struct ScanNoise {
     pub dropout_rate: f64,
     /// Probability that a return is replaced by a spurious one.
     pub spurious_rate: f64,
+    /// Mixed returns at depth edges (beam divergence).
+    pub mixed_returns: bool,
+    /// The unit's beam-angle errors.
+    pub beam_errors: BeamErrors,
 }
 
 impl ScanNoise {
-    /// No noise at all: exact ranges, no dropouts, no spurious returns (the physical losses at grazing
-    /// incidence and for weak returns still apply).
+    /// No noise at all: exact ranges and angles, no dropouts, no spurious or mixed returns (the physical
+    /// losses at grazing incidence and for weak returns still apply).
     pub const NONE: Self = Self {
         range_noise_scale: 0.0,
         dropout_rate: 0.0,
         spurious_rate: 0.0,
+        mixed_returns: false,
+        beam_errors: BeamErrors::none(),
     };
 }
 
 impl Default for ScanNoise {
+    /// The data sheets' errors, without beam-angle errors (they belong to a unit: see
+    /// [`BeamErrors::drawn`]).
     fn default() -> Self {
         Self {
             range_noise_scale: 1.0,
             dropout_rate: 0.01,
             spurious_rate: 0.0005,
+            mixed_returns: true,
+            beam_errors: BeamErrors::none(),
         }
     }
 }
@@ -53,11 +69,12 @@ fn cast_ray(
     world: &World,
     sensor: &Sensor,
     noise: &ScanNoise,
-    origin: V3,
-    rotation: &[[f32; 3]; 3],
+    (origin, rotation): (V3, &[[f32; 3]; 3]),
+    beam: usize,
     dir: V3,
     key: u64,
 ) -> Option<(f32, f32)> {
+    let dir = noise.beam_errors.true_direction(beam, dir);
     let world_dir = V3::new(
         rotation[0][0] * dir.x + rotation[0][1] * dir.y + rotation[0][2] * dir.z,
         rotation[1][0] * dir.x + rotation[1][1] * dir.y + rotation[1][2] * dir.z,
@@ -71,8 +88,11 @@ fn cast_ray(
     let mut rng = Rng::new(key);
     let cos_incidence = f64::from(hit.normal.dot(world_dir).abs());
     let albedo = f64::from(hit.material.albedo());
-    let strength = albedo * cos_incidence * (10.0 / range).powi(2);
-    if rng.chance(noise.dropout_rate) || cos_incidence < 0.05 && rng.chance(0.9) || strength < 0.002 {
+    let snr = snr(sensor, albedo * cos_incidence * (10.0 / range).powi(2));
+    if rng.chance(noise.dropout_rate)
+        || cos_incidence < 0.05 && rng.chance(0.9)
+        || !rng.chance(detection_probability(snr))
+    {
         return None;
     }
     let (mut range, mut intensity) = (range, albedo * cos_incidence * (1.0 + rng.range(-0.05, 0.05)));
@@ -84,7 +104,7 @@ fn cast_ray(
         };
         intensity = rng.range(0.0, 0.1);
     }
-    range += sensor.range_noise_m * noise.range_noise_scale * rng.gaussian();
+    range += range_sigma_m(sensor, snr) * noise.range_noise_scale * rng.gaussian();
     (range >= sensor.min_range_m && range <= sensor.max_range_m)
         .then_some((range as f32, intensity.clamp(0.0, 1.0) as f32))
 }
@@ -102,7 +122,7 @@ pub fn simulate_sweep(
     parallel: bool,
 ) -> Vec<RawPoint> {
     let per_group = sensor.rays_per_group();
-    let group_points = |group: usize, out: &mut [Option<RawPoint>]| {
+    let group_points = |group: usize, out: &mut [Option<(f32, f32)>]| {
         let offset_s = sensor.group_time_offset_s(group);
         let pose = world_from_sensor(sweep_start_s + offset_s);
         let t = pose.translation.vector;
@@ -112,14 +132,10 @@ pub fn simulate_sweep(
         for (ray, slot) in out.iter_mut().enumerate() {
             let dir = sensor.direction(group, ray, sweep_start_s);
             let ray_key = combine(key, (group * per_group + ray) as u64);
-            *slot =
-                cast_ray(world, sensor, noise, origin, &rotation, dir, ray_key).map(|(range, intensity)| {
-                    let p = dir * range;
-                    RawPoint::new(p.x, p.y, p.z, intensity, offset_s as f32, ray as u16)
-                });
+            *slot = cast_ray(world, sensor, noise, (origin, &rotation), ray, dir, ray_key);
         }
     };
-    let mut slots = vec![None; sensor.rays_per_sweep()];
+    let mut slots: Vec<Option<(f32, f32)>> = vec![None; sensor.rays_per_sweep()];
     if parallel {
         slots
             .par_chunks_mut(per_group)
@@ -131,5 +147,25 @@ pub fn simulate_sweep(
             .enumerate()
             .for_each(|(group, out)| group_points(group, out));
     }
-    slots.into_iter().flatten().collect()
+    if noise.mixed_returns {
+        let mut ranges: Vec<Option<f32>> = slots.iter().map(|slot| slot.map(|(range, _)| range)).collect();
+        if mix_depth_edges(sensor, &mut ranges, combine(key, 0x3d9e)) > 0 {
+            for (slot, range) in slots.iter_mut().zip(ranges) {
+                if let (Some((own, _)), Some(range)) = (slot.as_mut(), range) {
+                    *own = range;
+                }
+            }
+        }
+    }
+    slots
+        .into_iter()
+        .enumerate()
+        .filter_map(|(index, slot)| {
+            let (range, intensity) = slot?;
+            let (group, ray) = (index / per_group, index % per_group);
+            let p = sensor.direction(group, ray, sweep_start_s) * range;
+            let offset_s = sensor.group_time_offset_s(group) as f32;
+            Some(RawPoint::new(p.x, p.y, p.z, intensity, offset_s, ray as u16))
+        })
+        .collect()
 }

@@ -16,7 +16,8 @@
 //!   non-repetitive scanning", and Li et al., "Risley prism scanning", 2019); coverage grows with
 //!   integration time. 1–190 m.
 //!
-//! Range noise is Gaussian with each datasheet's 1-σ accuracy.
+//! Each model carries its data sheet's range precision, angular accuracy and beam divergence; how they
+//! degrade a scan is [`crate::sensor_errors`]'s.
 
 use crate::SimError;
 use crate::geometry::V3;
@@ -49,14 +50,42 @@ pub struct Sensor {
     pub pattern: Pattern,
     pub min_range_m: f64,
     pub max_range_m: f64,
-    /// 1-σ Gaussian range noise.
-    pub range_noise_m: f64,
+    /// The data sheet's best 1σ range precision (strong returns; weaker ones are noisier).
+    pub range_precision_m: f64,
+    /// 1σ error of each beam's angles in the unit's calibration table.
+    pub angular_accuracy_rad: f64,
+    /// Full-width-at-half-maximum beam divergence, in the scan direction.
+    pub beam_divergence_rad: f64,
     /// Unit directions of a spinning pattern, column-major (`column * beams + ring`).
     directions: Vec<V3>,
 }
 
 /// The canonical names `Sensor::by_name` knows.
 pub const SENSOR_NAMES: [&str; 5] = ["vlp16", "os1-32", "os1-64", "hdl64e", "avia"];
+
+/// A spinning model's data-sheet errors (sources in [`crate::sensor_errors`]).
+#[derive(Clone, Copy)]
+struct SensorErrors {
+    range_precision_m: f64,
+    angular_accuracy_deg: f64,
+    beam_divergence_rad: f64,
+}
+
+/// Ouster OS1 (gen 1) data sheet: ±1.5 cm repeatability at high SNR, ±0.01° angular sampling accuracy,
+/// 0.13° beam divergence (FWHM).
+const OS1_ERRORS: SensorErrors = SensorErrors {
+    range_precision_m: 0.015,
+    angular_accuracy_deg: 0.01,
+    beam_divergence_rad: 0.13 * std::f64::consts::PI / 180.0,
+};
+
+/// Velodyne VLP-16 data sheet: ±3 cm typical accuracy; 3.0 mrad horizontal divergence (user manual);
+/// no angular accuracy published, 0.05° assumed.
+const VELODYNE_ERRORS: SensorErrors = SensorErrors {
+    range_precision_m: 0.03,
+    angular_accuracy_deg: 0.05,
+    beam_divergence_rad: 3.0e-3,
+};
 
 /// Angular rates of the two prisms of the rosette model, in revolutions per second.
 const PRISM_HZ: [f64; 2] = [97.3, -61.1];
@@ -84,12 +113,37 @@ impl Sensor {
             .collect::<String>()
             .to_ascii_lowercase();
         let sensor = match key.as_str() {
-            "vlp16" | "velodyne16" | "puck" => {
-                Self::spinning("vlp16", uniform_deg(16, -15.0, 15.0), 1800, 0.5, 100.0, 0.015)
-            }
-            "os132" => Self::spinning("os1-32", uniform_deg(32, -16.6, 16.6), 1024, 0.8, 120.0, 0.015),
-            "os164" => Self::spinning("os1-64", uniform_deg(64, -16.6, 16.6), 1024, 0.8, 120.0, 0.015),
-            "hdl64e" | "hdl64" => Self::spinning("hdl64e", hdl64e_elevations_rad(), 2048, 0.9, 120.0, 0.02),
+            "vlp16" | "velodyne16" | "puck" => Self::spinning(
+                "vlp16",
+                uniform_deg(16, -15.0, 15.0),
+                1800,
+                [0.5, 100.0],
+                VELODYNE_ERRORS,
+            ),
+            "os132" => Self::spinning(
+                "os1-32",
+                uniform_deg(32, -16.6, 16.6),
+                1024,
+                [0.8, 120.0],
+                OS1_ERRORS,
+            ),
+            "os164" => Self::spinning(
+                "os1-64",
+                uniform_deg(64, -16.6, 16.6),
+                1024,
+                [0.8, 120.0],
+                OS1_ERRORS,
+            ),
+            "hdl64e" | "hdl64" => Self::spinning(
+                "hdl64e",
+                hdl64e_elevations_rad(),
+                2048,
+                [0.9, 120.0],
+                SensorErrors {
+                    range_precision_m: 0.02,
+                    ..VELODYNE_ERRORS
+                },
+            ),
             "avia" | "livoxavia" | "livox" => Self {
                 name: "avia",
                 pattern: Pattern::Rosette {
@@ -100,7 +154,9 @@ impl Sensor {
                 },
                 min_range_m: 1.0,
                 max_range_m: 190.0,
-                range_noise_m: 0.02,
+                range_precision_m: 0.02,
+                angular_accuracy_rad: 0.05f64.to_radians(),
+                beam_divergence_rad: 0.03f64.to_radians(),
                 directions: Vec::new(),
             },
             _ => {
@@ -117,9 +173,8 @@ impl Sensor {
         name: &'static str,
         elevations_rad: Vec<f64>,
         columns: usize,
-        min_range_m: f64,
-        max_range_m: f64,
-        range_noise_m: f64,
+        [min_range_m, max_range_m]: [f64; 2],
+        errors: SensorErrors,
     ) -> Self {
         let mut directions = Vec::with_capacity(columns * elevations_rad.len());
         for column in 0..columns {
@@ -140,7 +195,9 @@ impl Sensor {
             },
             min_range_m,
             max_range_m,
-            range_noise_m,
+            range_precision_m: errors.range_precision_m,
+            angular_accuracy_rad: errors.angular_accuracy_deg.to_radians(),
+            beam_divergence_rad: errors.beam_divergence_rad,
             directions,
         }
     }

@@ -17,11 +17,23 @@ use crate::rng::combine;
 use crate::route::Route;
 use crate::scan::{ScanNoise, simulate_sweep};
 use crate::sensor::{SWEEP_PERIOD_S, Sensor};
+use crate::sensor_errors::BeamErrors;
 use crate::trajectory::Trajectory;
 use crate::world::{World, WorldKind};
 
 /// Largest fleet the simulator plans routes for.
 pub const MAX_ROBOTS: u32 = 16;
+
+/// How far the simulated sensors are from perfect.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseModel {
+    /// The data sheets' errors (see [`crate::sensor_errors`] and [`ImuNoise`]).
+    #[default]
+    Datasheet,
+    /// No errors: for tests that check geometry.
+    Ideal,
+}
 
 /// Parameters of the `sim` source (`[source.sim]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -50,6 +62,11 @@ pub struct SimConfig {
     pub speed_mps: f64,
     /// `ground` or `aerial`.
     pub profile: Profile,
+    /// `datasheet`: the sensor's and the IMU's errors at their data sheets' values (range precision by
+    /// signal-to-noise ratio, detection threshold, beam-angle errors, mixed returns at depth edges, IMU
+    /// white noise and bias drift); `ideal`: exact ranges, angles and IMU samples, no dropouts or
+    /// spurious returns (for tests that check geometry).
+    pub noise: NoiseModel,
     /// Multiplies the sensor's range noise σ (0 = exact ranges).
     pub range_noise_scale: f64,
     /// Probability that a return is lost.
@@ -81,6 +98,7 @@ impl Default for SimConfig {
             seed: 7,
             sensor: "os1-64".to_owned(),
             robots: 3,
+            noise: NoiseModel::Datasheet,
             mission: Mission::ExploreMeet,
             frames: 0,
             route_length_m: 600.0,
@@ -194,13 +212,23 @@ impl SimConfig {
         )
     }
 
-    /// The scan degradations.
-    pub fn scan_noise(&self) -> ScanNoise {
-        ScanNoise {
-            range_noise_scale: self.range_noise_scale,
-            dropout_rate: self.dropout_rate,
-            spurious_rate: self.spurious_rate,
+    /// The scan degradations of a unit of `sensor` whose beam-angle errors are drawn from `unit_seed`.
+    pub fn scan_noise(&self, sensor: &Sensor, unit_seed: u64) -> ScanNoise {
+        match self.noise {
+            NoiseModel::Ideal => ScanNoise::NONE,
+            NoiseModel::Datasheet => ScanNoise {
+                range_noise_scale: self.range_noise_scale,
+                dropout_rate: self.dropout_rate,
+                spurious_rate: self.spurious_rate,
+                mixed_returns: true,
+                beam_errors: BeamErrors::drawn(sensor, 1.0, unit_seed),
+            },
         }
+    }
+
+    /// The IMU's noise, `None` for a perfect IMU.
+    pub fn imu_noise(&self) -> Option<ImuNoise> {
+        (self.imu_noise && self.noise == NoiseModel::Datasheet).then_some(self.imu_model)
     }
 
     /// The motion parameters.
@@ -279,9 +307,10 @@ impl SimSource {
         };
         let key = combine(combine(config.seed, 0x5ca1), u64::from(robot));
         let imu = config.imu.then(|| {
-            ImuSimulator::new(config.imu_noise.then_some(config.imu_model), combine(key, 1))
+            ImuSimulator::new(config.imu_noise(), combine(key, 1))
                 .mounted(config.sensor_from_imu(), config.imu_clock_offset_s)
         });
+        let noise = config.scan_noise(&sensor, combine(key, 3));
         let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -298,7 +327,7 @@ impl SimSource {
             route,
             trajectory,
             robot: RobotId(robot),
-            noise: config.scan_noise(),
+            noise,
             imu,
             imu_from_sensor: config.sensor_from_imu().inverse(),
             key,
