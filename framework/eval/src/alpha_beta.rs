@@ -105,3 +105,79 @@ pub fn alpha_beta(
         beta_error_transform: error,
     })
 }
+
+/// The error of β's frame as placed in α's, judged at the two robots' anchors: each robot's map frame is
+/// fixed by its first pose (the back-end holds it with a prior), so the true `T^α_β` is
+/// `(T^GT_α(0) · T̂_α(0)⁻¹)⁻¹ · T^GT_β(0) · T̂_β(0)⁻¹` and the error is the estimate against it.
+///
+/// Unlike `T_β,APE`, which takes each robot's frame from an Umeyama alignment of its whole trajectory,
+/// this is defined for any trajectory: a straight route leaves the rotation about its own line
+/// unobservable to Umeyama (see [`crate::conditioning`]), and `T_β,APE` then reports an arbitrary
+/// rotation for a frame placed correctly. The price is that drift between a robot's start and the places
+/// where the robots met enters the error; over the routes a merge is judged on it is small.
+pub fn anchored_frame_error(
+    (gt_alpha_first, est_alpha_first): (&Pose, &Pose),
+    (gt_beta_first, est_beta_first): (&Pose, &Pose),
+    alpha_from_beta: &Pose,
+) -> TransformError {
+    let true_alpha_from_beta =
+        (gt_alpha_first * est_alpha_first.inverse()).inverse() * (gt_beta_first * est_beta_first.inverse());
+    let error = true_alpha_from_beta.inverse() * alpha_from_beta;
+    TransformError {
+        translation_m: error.translation.vector.norm(),
+        rotation_deg: rotation_angle_deg(&error.rotation),
+        scale: 1.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Translation3, UnitQuaternion, Vector3};
+
+    fn pose(x: f64, y: f64, yaw_deg: f64) -> Pose {
+        Pose::from_parts(
+            Translation3::new(x, y, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
+        )
+    }
+
+    /// Two straight routes, each robot's estimate in its own frame (its first pose at the origin).
+    fn straight(start: Pose, count: usize) -> (Vec<Pose>, Vec<Pose>) {
+        let truth: Vec<Pose> = (0..count).map(|i| start * pose(i as f64, 0.0, 0.0)).collect();
+        let estimate = truth.iter().map(|t| truth[0].inverse() * t).collect();
+        (truth, estimate)
+    }
+
+    #[test]
+    fn a_correct_frame_has_no_anchored_error_even_where_umeyama_is_blind() {
+        let (gt_a, est_a) = straight(pose(0.0, 0.0, 0.0), 50);
+        let (gt_b, est_b) = straight(pose(10.0, 5.0, 90.0), 50);
+        let alpha_from_beta = gt_a[0].inverse() * gt_b[0];
+        let anchored = anchored_frame_error((&gt_a[0], &est_a[0]), (&gt_b[0], &est_b[0]), &alpha_from_beta);
+        assert!(anchored.translation_m < 1e-9 && anchored.rotation_deg < 1e-9);
+
+        // Off by 3 m and 10°: reported as such.
+        let wrong = alpha_from_beta * pose(3.0, 0.0, 10.0);
+        let anchored = anchored_frame_error((&gt_a[0], &est_a[0]), (&gt_b[0], &est_b[0]), &wrong);
+        assert!((anchored.translation_m - 3.0).abs() < 1e-9);
+        assert!((anchored.rotation_deg - 10.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_anchored_error_does_not_depend_on_where_each_map_frame_starts() {
+        let (gt_a, _) = straight(pose(0.0, 0.0, 0.0), 20);
+        let (gt_b, _) = straight(pose(-4.0, 8.0, 30.0), 20);
+        // Each robot's estimate in a frame of its own choosing.
+        let frame_a = Pose::new(Vector3::new(1.0, 2.0, 0.5), Vector3::new(0.1, 0.0, 0.4));
+        let frame_b = Pose::new(Vector3::new(-3.0, 0.0, 1.0), Vector3::new(0.0, 0.2, -1.0));
+        let est_a: Vec<Pose> = gt_a.iter().map(|t| frame_a * t).collect();
+        let est_b: Vec<Pose> = gt_b.iter().map(|t| frame_b * t).collect();
+        let alpha_from_beta = frame_a * frame_b.inverse();
+        let anchored = anchored_frame_error((&gt_a[0], &est_a[0]), (&gt_b[0], &est_b[0]), &alpha_from_beta);
+        assert!(
+            anchored.translation_m < 1e-9 && anchored.rotation_deg < 1e-6,
+            "{anchored:?}"
+        );
+    }
+}

@@ -31,7 +31,7 @@ pub mod stats;
 pub mod trajectory;
 pub mod umeyama;
 
-pub use alpha_beta::{AlphaBetaInput, AlphaBetaResult, TransformError, alpha_beta};
+pub use alpha_beta::{AlphaBetaInput, AlphaBetaResult, TransformError, alpha_beta, anchored_frame_error};
 pub use ape::{Aligned, AlignmentSummary, ApeResult, align, ape, ape_of_aligned};
 pub use associate::{Associated, DEFAULT_MAX_DIFF_S, TimeAssociation, associate_by_index, associate_by_time};
 pub use comms::{

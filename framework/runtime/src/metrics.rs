@@ -17,7 +17,7 @@ use serde::Serialize;
 use skid_core::{KeyframeId, Pose};
 use skid_eval::{
     AlignmentConditioning, AlignmentKind, AlphaBetaInput, ErrorStats, RpeOptions, TransformError,
-    alignment_conditioning, alpha_beta, ape, rpe, umeyama,
+    alignment_conditioning, alpha_beta, anchored_frame_error, ape, rpe, umeyama,
 };
 
 use crate::host::{LoopStats, RobotHost};
@@ -53,6 +53,9 @@ pub struct AlignmentMetrics {
     pub joined_after_s: Option<f64>,
     /// `T_β,APE = (T^GT_β)⁻¹ · T^GT_α · T^α_β`.
     pub beta_alignment_error: TransformError,
+    /// β's frame in α's against the truth at the two robots' first poses (defined on straight routes,
+    /// where `T_β,APE`'s rotation is not): what decides a false merge.
+    pub anchored_frame_error: TransformError,
     /// The translation of `T_β,APE` as a percentage of β's path length.
     pub beta_alignment_percent_of_path: f64,
     /// β's trajectory placed through α's alignment, against β's ground truth: metres and degrees.
@@ -225,6 +228,17 @@ fn alignment_metrics(
         AlignmentKind::Se3,
     )
     .map_err(|e| e.to_string())?;
+    let anchored_frame_error = match (
+        gt_alpha.first(),
+        est_alpha.first(),
+        gt_beta.first(),
+        est_beta.first(),
+    ) {
+        (Some(gt_a), Some(est_a), Some(gt_b), Some(est_b)) => {
+            anchored_frame_error((gt_a, est_a), (gt_b, est_b), &alpha_from_beta)
+        }
+        _ => return Err("no pose with ground truth to anchor the frames".to_owned()),
+    };
     let beta_path_m = path_length_m(&gt_beta).max(f64::MIN_POSITIVE);
     let joined_via = (shared_keyframes == 0)
         .then(|| {
@@ -247,6 +261,7 @@ fn alignment_metrics(
         joined_after_s,
         beta_alignment_percent_of_path: 100.0 * result.beta_alignment_error.translation_m / beta_path_m,
         beta_alignment_error: result.beta_alignment_error,
+        anchored_frame_error,
         beta_in_alpha_ate_m: result.beta_in_alpha.translation_m,
         beta_in_alpha_are_deg: result.beta_in_alpha.rotation_deg,
     })
