@@ -148,14 +148,7 @@ pub fn simulate_sweep(
             .for_each(|(group, out)| group_points(group, out));
     }
     if noise.mixed_returns {
-        let mut ranges: Vec<Option<f32>> = slots.iter().map(|slot| slot.map(|(range, _)| range)).collect();
-        if mix_depth_edges(sensor, &mut ranges, combine(key, 0x3d9e)) > 0 {
-            for (slot, range) in slots.iter_mut().zip(ranges) {
-                if let (Some((own, _)), Some(range)) = (slot.as_mut(), range) {
-                    *own = range;
-                }
-            }
-        }
+        mix_depth_edges(sensor, &mut slots, combine(key, 0x3d9e));
     }
     slots
         .into_iter()

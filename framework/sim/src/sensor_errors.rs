@@ -60,11 +60,12 @@ pub fn range_sigma_m(sensor: &Sensor, snr: f64) -> f64 {
     } else if snr >= snr_high {
         sigma_high
     } else {
-        let row = OS1_REPEATABILITY
-            .windows(2)
-            .find(|w| snr <= w[1].0)
-            .map_or([OS1_REPEATABILITY[1], OS1_REPEATABILITY[2]], |w| [w[0], w[1]]);
-        let [(s0, e0), (s1, e1)] = row;
+        let [low, middle, high] = OS1_REPEATABILITY;
+        let [(s0, e0), (s1, e1)] = if snr <= middle.0 {
+            [low, middle]
+        } else {
+            [middle, high]
+        };
         let f = (snr.ln() - s0.ln()) / (s1.ln() - s0.ln());
         (e0.ln() + f * (e1.ln() - e0.ln())).exp()
     };
@@ -115,17 +116,18 @@ impl BeamErrors {
     }
 }
 
-/// Turns returns next to depth edges into mixed returns, in place. `ranges` holds one sweep's ranges in
-/// firing order (`column * beams + beam`, `None` for no return) of a spinning sensor; `key` seeds the
-/// draws. Returns how many returns were mixed.
-pub fn mix_depth_edges(sensor: &Sensor, ranges: &mut [Option<f32>], key: u64) -> usize {
+/// Turns returns next to depth edges into mixed returns, in place. `returns` holds one sweep's
+/// `(range, intensity)` in firing order (`column * beams + beam`, `None` for no return) of a spinning
+/// sensor; `key` seeds the draws. Returns how many returns were mixed.
+pub fn mix_depth_edges(sensor: &Sensor, returns: &mut [Option<(f32, f32)>], key: u64) -> usize {
     let (beams, columns) = (sensor.rays_per_group(), sensor.groups());
-    if sensor.elevations_rad().is_empty() || columns < 2 || ranges.len() != beams * columns {
+    if sensor.elevations_rad().is_empty() || columns < 2 || returns.len() != beams * columns {
         return 0;
     }
     let spacing_rad = std::f64::consts::TAU / columns as f64;
     let probability = (sensor.beam_divergence_rad / 2.0 / spacing_rad).min(1.0);
-    let original = ranges.to_vec();
+    // Neighbours are judged by their ranges before any mixing.
+    let original: Vec<Option<f32>> = returns.iter().map(|r| r.map(|(range, _)| range)).collect();
     let mut changed = 0;
     for column in 0..columns {
         for beam in 0..beams {
@@ -140,7 +142,9 @@ pub fn mix_depth_edges(sensor: &Sensor, ranges: &mut [Option<f32>], key: u64) ->
                 };
                 if (other - own).abs() > DEPTH_EDGE_M && rng.chance(probability) {
                     let (near, far) = (own.min(other), own.max(other));
-                    ranges[index] = Some(near + (far - near) * rng.uniform() as f32);
+                    if let Some((range, _)) = &mut returns[index] {
+                        *range = near + (far - near) * rng.uniform() as f32;
+                    }
                     changed += 1;
                     break;
                 }
@@ -201,13 +205,16 @@ mod tests {
         let (beams, columns) = (vlp.rays_per_group(), vlp.groups());
         // A wall at 5 m over half the columns, 20 m behind it elsewhere.
         let wall = |column: usize| if column < columns / 2 { 5.0 } else { 20.0 };
-        let mut ranges: Vec<Option<f32>> = (0..beams * columns).map(|i| Some(wall(i / beams))).collect();
-        let changed = mix_depth_edges(&vlp, &mut ranges, 1);
+        let mut returns: Vec<Option<(f32, f32)>> = (0..beams * columns)
+            .map(|i| Some((wall(i / beams), 0.5)))
+            .collect();
+        let changed = mix_depth_edges(&vlp, &mut returns, 1);
         assert!(changed > 0 && changed <= 4 * beams, "{changed}");
-        for (index, range) in ranges.iter().enumerate() {
+        for (index, mixed) in returns.iter().enumerate() {
             let column = index / beams;
             let at_edge = [columns / 2 - 1, columns / 2, 0, columns - 1].contains(&column);
-            let range = range.unwrap();
+            let (range, intensity) = mixed.unwrap();
+            assert_eq!(intensity, 0.5);
             if !at_edge {
                 assert_eq!(range, wall(column));
             }
