@@ -129,19 +129,21 @@ pub fn run_one(
         .with_context(|| format!("running {name}"))?;
     let (_, metrics) = skid_runtime::write_outputs(&fleet, &summary)?;
     let coarse_ambiguous = metrics.robots.iter().map(|r| r.loops.coarse_ambiguous).sum();
+    // A route too straight for its Umeyama alignment to fix the rotation about it.
+    let straight = |robot: &skid_runtime::RobotMetrics| {
+        robot
+            .trajectory
+            .as_ref()
+            .is_some_and(|t| t.alignment_conditioning.ill_conditioned)
+    };
+    let alpha_straight = metrics.robots.first().is_some_and(straight);
     Ok(metrics
         .robots
         .iter()
         .enumerate()
         .skip(1)
         .map(|(beta_robot, beta)| {
-            let ill_conditioned = |robot: &skid_runtime::RobotMetrics| {
-                robot
-                    .trajectory
-                    .as_ref()
-                    .is_some_and(|t| t.alignment_conditioning.ill_conditioned)
-            };
-            let straight_route = ill_conditioned(beta) || metrics.robots.first().is_some_and(ill_conditioned);
+            let straight_route = alpha_straight || straight(beta);
             let ape = beta.alignment.as_ref().map(|a| &a.beta_alignment_error);
             // The paper's metric where both Umeyama alignments are defined; the anchored frame error
             // where a straight route leaves T_β,APE's rotation arbitrary.

@@ -53,8 +53,8 @@ pub struct AlignmentMetrics {
     pub joined_after_s: Option<f64>,
     /// `T_β,APE = (T^GT_β)⁻¹ · T^GT_α · T^α_β`.
     pub beta_alignment_error: TransformError,
-    /// β's frame in α's against the truth at the two robots' first poses (defined on straight routes,
-    /// where `T_β,APE`'s rotation is not): what decides a false merge.
+    /// β's frame in α's against the truth at the two robots' first poses: defined on straight routes,
+    /// where `T_β,APE`'s rotation is not (the aliasing benchmark judges a merge by it there).
     pub anchored_frame_error: TransformError,
     /// The translation of `T_β,APE` as a percentage of β's path length.
     pub beta_alignment_percent_of_path: f64,
