@@ -265,7 +265,7 @@ enum StageCommand {
 #[derive(Args, Debug)]
 struct SimFlags {
     /// The world to simulate.
-    #[arg(long, default_value = "planetary", value_parser = ["planetary", "cave", "urban"])]
+    #[arg(long, default_value = "planetary", value_parser = ["planetary", "cave", "urban", "blocks"])]
     world: String,
     /// The LiDAR model.
     #[arg(long, default_value = "os1-64", value_parser = ["vlp16", "os1-32", "os1-64", "hdl64e", "avia"])]

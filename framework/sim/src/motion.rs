@@ -42,7 +42,7 @@ impl MotionSpec {
     /// lane in a city (1.75 m), a rover's offset from a planned traverse (1 m), a little in a tunnel.
     pub fn default_keep_right_m(kind: WorldKind) -> f64 {
         match kind {
-            WorldKind::Urban => 1.75,
+            WorldKind::Urban | WorldKind::Blocks => 1.75,
             WorldKind::Planetary => 1.0,
             WorldKind::Cave => 0.3,
         }

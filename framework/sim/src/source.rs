@@ -39,7 +39,7 @@ pub enum NoiseModel {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
-    /// `planetary`, `cave` or `urban`.
+    /// `planetary`, `cave`, `urban` or `blocks` (the urban grid made of identical blocks).
     pub world: String,
     /// Seeds the world, the routes and every noise stream.
     pub seed: u64,

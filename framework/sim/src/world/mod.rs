@@ -2,7 +2,7 @@
 //!
 //! A world is a terrain height field (surface worlds) plus a BVH over every object's triangles, and
 //! the drivable [`RoadGraph`] that routes walk on. See the `planetary`, `cave` and `urban` modules for
-//! what each kind contains.
+//! what each kind contains (`blocks` is the urban generator's self-similar layout).
 
 mod cave;
 pub mod graph;
@@ -35,16 +35,24 @@ pub enum WorldKind {
     Cave,
     /// A street grid with buildings, poles, parked cars and trees.
     Urban,
+    /// A regular street grid of identical blocks and identically lined streets: a city that aliases.
+    Blocks,
 }
 
 impl WorldKind {
-    pub const ALL: [WorldKind; 3] = [WorldKind::Planetary, WorldKind::Cave, WorldKind::Urban];
+    pub const ALL: [WorldKind; 4] = [
+        WorldKind::Planetary,
+        WorldKind::Cave,
+        WorldKind::Urban,
+        WorldKind::Blocks,
+    ];
 
     pub const fn name(self) -> &'static str {
         match self {
             WorldKind::Planetary => "planetary",
             WorldKind::Cave => "cave",
             WorldKind::Urban => "urban",
+            WorldKind::Blocks => "blocks",
         }
     }
 }
@@ -170,7 +178,8 @@ impl World {
         let parts = match kind {
             WorldKind::Planetary => planetary::generate(seed),
             WorldKind::Cave => cave::generate(seed),
-            WorldKind::Urban => urban::generate(seed),
+            WorldKind::Urban => urban::generate(seed, urban::Layout::Irregular),
+            WorldKind::Blocks => urban::generate(seed, urban::Layout::IdenticalBlocks),
         };
         Self {
             kind,

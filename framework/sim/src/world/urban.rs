@@ -2,6 +2,11 @@
 //! slope), raised sidewalks, blocks of box buildings (some with set-back upper storeys), street poles,
 //! parked cars and trees. Street spacing and building heights are drawn per seed; intersections stay
 //! clear of clutter.
+//!
+//! Its `blocks` variant is the self-similar city the trust benchmark needs: streets every 100 m both
+//! ways, every block built from the same draw (the same lots, heights and set-backs) and every street
+//! lined with the same poles and trees, so one block or street is told from another only by the
+//! ground's gentle slope and by where cars happen to be parked (drawn afresh per street).
 
 use super::Material;
 use super::WorldParts;
@@ -23,6 +28,26 @@ const SIDEWALK_OUTER_M: f64 = 9.5;
 /// Cross slope of a carriageway's crown (rise per metre towards the centre line).
 const CROSS_SLOPE: f64 = 0.02;
 
+/// Street spacing of the `blocks` variant, metres.
+const BLOCK_PITCH_M: f64 = 100.0;
+
+/// Whether every block and street repeats the same draw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Layout {
+    /// Irregular streets, each block and street drawn afresh.
+    Irregular,
+    /// Regular streets; identical blocks and street furniture.
+    IdenticalBlocks,
+}
+
+/// Street positions along one axis for `layout`.
+fn street_positions(rng: &mut Rng, layout: Layout) -> Vec<f64> {
+    match layout {
+        Layout::Irregular => street_lines(rng),
+        Layout::IdenticalBlocks => (0..=8).map(|i| -400.0 + BLOCK_PITCH_M * f64::from(i)).collect(),
+    }
+}
+
 /// Street positions along one axis: irregular spacing 70–130 m.
 fn street_lines(rng: &mut Rng) -> Vec<f64> {
     let mut lines = vec![-420.0];
@@ -36,10 +61,13 @@ fn street_lines(rng: &mut Rng) -> Vec<f64> {
     lines
 }
 
-pub(crate) fn generate(seed: u64) -> WorldParts {
+pub(crate) fn generate(seed: u64, layout: Layout) -> WorldParts {
     let mut rng = Rng::new(combine(seed, 0x0b5a));
-    let xs = street_lines(&mut rng);
-    let ys = street_lines(&mut rng);
+    let xs = street_positions(&mut rng, layout);
+    let ys = street_positions(&mut rng, layout);
+    // Identical blocks draw each block's buildings and each street side's poles and trees from a copy of
+    // this one stream; irregular layouts draw everything from the world's own stream, in turn.
+    let repeated = Rng::new(combine(seed, 0xb10c));
     let ground = |x: f64, y: f64| 2.5 * fbm2(combine(seed, 7), x / 400.0, y / 400.0, 3, 0.5);
     // Distance to the nearest street centre line (streets run the full grid).
     let street_distance = |x: f64, y: f64| {
@@ -109,6 +137,11 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
     // Buildings: each block is cut into lots along x; each lot gets a box, sometimes with a set-back.
     for bj in 0..ys.len() - 1 {
         for bi in 0..nx - 1 {
+            let mut copy = repeated.clone();
+            let rng: &mut Rng = match layout {
+                Layout::Irregular => &mut rng,
+                Layout::IdenticalBlocks => &mut copy,
+            };
             let (x0, x1) = (
                 xs[bi] + SIDEWALK_OUTER_M + 1.0,
                 xs[bi + 1] - SIDEWALK_OUTER_M - 1.0,
@@ -164,20 +197,25 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
         for side in [-1.0, 1.0] {
             let (nx_, ny_) = (-uy * side, ux * side);
             let at = |s: f64, offset: f64| (pa[0] + ux * s + nx_ * offset, pa[1] + uy * s + ny_ * offset);
-            let mut s = 14.0 + rng.range(0.0, 10.0);
+            let mut copy = repeated.clone();
+            let furniture: &mut Rng = match layout {
+                Layout::Irregular => &mut rng,
+                Layout::IdenticalBlocks => &mut copy,
+            };
+            let mut s = 14.0 + furniture.range(0.0, 10.0);
             while s < length - 14.0 {
                 let (x, y) = at(s, 7.0);
                 add_prism(
                     &mut objects,
                     V3::from_f64(x, y, ground(x, y)),
                     0.12,
-                    rng.range(6.0, 8.5) as f32,
+                    furniture.range(6.0, 8.5) as f32,
                     8,
                     Material::Metal as u8,
                 );
-                s += rng.range(22.0, 32.0);
+                s += furniture.range(22.0, 32.0);
             }
-            let mut s = 18.0 + rng.range(0.0, 10.0);
+            let mut s = 18.0 + furniture.range(0.0, 10.0);
             while s < length - 18.0 {
                 let (x, y) = at(s, 8.3);
                 let z = ground(x, y) + 0.15;
@@ -189,17 +227,17 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
                     6,
                     Material::Bark as u8,
                 );
-                let r = rng.range(1.6, 2.6);
+                let r = furniture.range(1.6, 2.6);
                 add_blob(
                     &mut objects,
-                    &mut rng,
+                    furniture,
                     V3::from_f64(x, y, z + 3.0 + r * 0.8),
                     V3::from_f64(r, r, r * 0.85),
                     1,
                     0.25,
                     Material::Foliage as u8,
                 );
-                s += rng.range(15.0, 30.0);
+                s += furniture.range(15.0, 30.0);
             }
             let mut s = 15.0;
             while s < length - 19.0 {

@@ -5,6 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // Test code fails loudly by design.
 
 mod api;
+mod blocks;
 mod common;
 mod geometry;
 mod missions;

@@ -11,11 +11,12 @@ use nalgebra::{Matrix3, Matrix6, Point3, SymmetricEigen, UnitQuaternion, Vector3
 use skid_core::{Pose, Scan};
 use skid_sim::{Trajectory, World, WorldKind};
 
-/// The world of `kind` with seed 7, built once per test binary.
+/// The world of `kind` with seed 7, built once per test binary (each on first use).
 pub fn world(kind: WorldKind) -> Arc<World> {
-    static WORLDS: OnceLock<[Arc<World>; 3]> = OnceLock::new();
-    let worlds = WORLDS.get_or_init(|| WorldKind::ALL.map(|k| World::shared(k, 7)));
-    Arc::clone(&worlds[WorldKind::ALL.iter().position(|&k| k == kind).unwrap_or(0)])
+    const KINDS: usize = WorldKind::ALL.len();
+    static WORLDS: [OnceLock<Arc<World>>; KINDS] = [const { OnceLock::new() }; KINDS];
+    let index = WorldKind::ALL.iter().position(|&k| k == kind).unwrap_or(0);
+    Arc::clone(WORLDS[index].get_or_init(|| World::shared(kind, 7)))
 }
 
 /// Points of `scan` moved into the sensor frame at the scan stamp, using the true trajectory.
