@@ -3,10 +3,15 @@
 //! consistent set accepted at once, no check against the frame through a third robot), or any other
 //! variants the profile lists. It counts, per world and rule set, the robots β placed in
 //! robot α's frame: **false merges** (a frame more than 2 m or 5° from the truth, the one definition all
-//! SKiD benchmarks use: by `T_β,APE`, or at the robots' first poses, where each map frame is anchored,
-//! when a straight route leaves `T_β,APE`'s rotation undefined: `skid_eval::anchored_frame_error`), true
-//! merges, and robots never merged; refusing everything cannot pass, since
+//! SKiD benchmarks use), true merges, and robots never merged; refusing everything cannot pass, since
 //! the missed true merges are counted beside the false ones.
+//!
+//! The frame is judged where the robots met (`skid_eval::meeting_frame_error`: the relative poses
+//! between the two robots' poses that were within 10 m of each other, in the merged map against the
+//! truth), which is what a merge decides and carries no drift from elsewhere on the routes. Robots that
+//! never met are judged by `T_β,APE`, or at the robots' first poses where a straight route leaves
+//! `T_β,APE`'s rotation undefined (`skid_eval::anchored_frame_error`); both are reported beside, and
+//! both carry the odometry's drift.
 //!
 //! Every run is the real runtime (`skid_runtime::Fleet` in lockstep) built from `configs/default.toml`,
 //! the variant's overrides and the bench's; the frame error is the runtime's own α/β metric
@@ -85,10 +90,14 @@ pub struct MergeRow {
     pub seed: u64,
     pub variant: String,
     pub beta_robot: usize,
-    /// β's frame error when β was placed in α's frame (what decides): `T_β,APE`, or on a straight route
-    /// the error at the robots' first poses.
+    /// β's frame error when β was placed in α's frame (what decides): where the robots met, or for
+    /// robots that never met `T_β,APE` (on a straight route the error at the robots' first poses).
     pub frame_error_m: Option<f64>,
     pub frame_error_deg: Option<f64>,
+    /// Which measure decided: `meeting`, `T_β,APE` or `anchored`.
+    pub judged_by: &'static str,
+    /// Seconds of robot time until α first placed β in its frame.
+    pub joined_after_s: Option<f64>,
     /// The paper's `T_β,APE` itself, and whether either robot's route was too straight for its Umeyama
     /// alignment to fix the rotation (then `T_β,APE`'s rotation means nothing).
     pub t_beta_ape_m: Option<f64>,
@@ -145,20 +154,31 @@ pub fn run_one(
         .map(|(beta_robot, beta)| {
             let straight_route = alpha_straight || straight(beta);
             let ape = beta.alignment.as_ref().map(|a| &a.beta_alignment_error);
-            // The paper's metric where both Umeyama alignments are defined; the anchored frame error
-            // where a straight route leaves T_β,APE's rotation arbitrary.
-            let error = beta.alignment.as_ref().map(|a| {
-                if straight_route {
-                    &a.anchored_frame_error
-                } else {
-                    &a.beta_alignment_error
-                }
-            });
+            // Where the robots met when they did; otherwise the paper's metric, or the anchored frame
+            // error where a straight route leaves T_β,APE's rotation arbitrary.
+            let (error, judged_by) = match beta.alignment.as_ref() {
+                None => (None, "none"),
+                Some(a) => match (&a.meeting_frame_error, straight_route) {
+                    (Some(meeting), _) => (Some((meeting.translation_m, meeting.rotation_deg)), "meeting"),
+                    (None, true) => (
+                        Some((
+                            a.anchored_frame_error.translation_m,
+                            a.anchored_frame_error.rotation_deg,
+                        )),
+                        "anchored",
+                    ),
+                    (None, false) => (
+                        Some((
+                            a.beta_alignment_error.translation_m,
+                            a.beta_alignment_error.rotation_deg,
+                        )),
+                        "T_β,APE",
+                    ),
+                },
+            };
             let outcome = match error {
                 None => "not merged",
-                Some(e) if e.translation_m > FALSE_MERGE_M || e.rotation_deg > FALSE_MERGE_DEG => {
-                    "false merge"
-                }
+                Some((m, deg)) if m > FALSE_MERGE_M || deg > FALSE_MERGE_DEG => "false merge",
                 Some(_) => "merged",
             };
             MergeRow {
@@ -166,8 +186,10 @@ pub fn run_one(
                 seed,
                 variant: variant.name.clone(),
                 beta_robot,
-                frame_error_m: error.map(|e| e.translation_m),
-                frame_error_deg: error.map(|e| e.rotation_deg),
+                frame_error_m: error.map(|e| e.0),
+                frame_error_deg: error.map(|e| e.1),
+                judged_by,
+                joined_after_s: beta.alignment.as_ref().and_then(|a| a.joined_after_s),
                 t_beta_ape_m: ape.map(|e| e.translation_m),
                 t_beta_ape_deg: ape.map(|e| e.rotation_deg),
                 straight_route,
@@ -192,6 +214,7 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
         "true merges ↑",
         "not merged",
         "worst true-merge error [m / °]",
+        "median time to a true merge [s]",
         "T_β,APE over 2 m or 5° (of them on a straight route)",
         "ambiguous candidates refused",
     ]
@@ -213,6 +236,11 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
                 .iter()
                 .filter_map(|r| r.frame_error_deg)
                 .fold(0.0, f64::max);
+            let mut times: Vec<f64> = true_merges.iter().filter_map(|r| r.joined_after_s).collect();
+            times.sort_by(f64::total_cmp);
+            let median_time = times
+                .get(times.len() / 2)
+                .map_or_else(|| "–".to_owned(), |t| format!("{t:.0}"));
             let ape_over: Vec<&&MergeRow> = mine
                 .iter()
                 .filter(|r| {
@@ -237,13 +265,14 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
                 true_merges.len().to_string(),
                 count("not merged").to_string(),
                 format!("{worst_m:.2} / {worst_deg:.2}"),
+                median_time,
                 format!("{} ({ape_over_straight})", ape_over.len()),
                 ambiguous.to_string(),
             ]);
         }
     }
     format!(
-        "# aliasing\n\nMerges of robots β into robot α's frame in worlds that alias, {} robots, {} scans per robot, seeds {:?}. A false merge places β's frame more than {FALSE_MERGE_M} m or {FALSE_MERGE_DEG}° from the truth: by the paper's `T_β,APE`, except where α's or β's route is too straight for its Umeyama alignment to fix the rotation about it, where the frame is judged at the robots' first poses (each map frame's anchor) instead; `T_β,APE` alone is counted beside. Variants: {}. Runtime overrides: `{}`.\n\n{}",
+        "# aliasing\n\nMerges of robots β into robot α's frame in worlds that alias, {} robots, {} scans per robot, seeds {:?}. A false merge places β's frame more than {FALSE_MERGE_M} m or {FALSE_MERGE_DEG}° from the truth, judged where the robots met (the median error of the relative poses between their poses within 10 m of each other, in the merged map), which carries no drift from elsewhere on the routes; robots that never met are judged by the paper's `T_β,APE` (at the robots' first poses where a route is too straight for its Umeyama alignment). `T_β,APE` alone, which carries the odometry's drift, is counted beside. Variants: {}. Runtime overrides: `{}`.\n\n{}",
         settings.robots,
         settings.max_scans,
         settings.seeds,

@@ -16,8 +16,9 @@ use nalgebra::Vector3;
 use serde::Serialize;
 use skid_core::{KeyframeId, Pose};
 use skid_eval::{
-    AlignmentConditioning, AlignmentKind, AlphaBetaInput, ErrorStats, RpeOptions, TransformError,
-    alignment_conditioning, alpha_beta, anchored_frame_error, ape, rpe, umeyama,
+    AlignmentConditioning, AlignmentKind, AlphaBetaInput, ErrorStats, MEETING_RADIUS_M, MeetingError,
+    RpeOptions, TransformError, alignment_conditioning, alpha_beta, anchored_frame_error, ape,
+    meeting_frame_error, rpe, umeyama,
 };
 
 use crate::host::{LoopStats, RobotHost};
@@ -56,6 +57,10 @@ pub struct AlignmentMetrics {
     /// β's frame in α's against the truth at the two robots' first poses: defined on straight routes,
     /// where `T_β,APE`'s rotation is not (the aliasing benchmark judges a merge by it there).
     pub anchored_frame_error: TransformError,
+    /// β's placement judged where the robots met (within 10 m of each other in truth): the median error
+    /// of the relative poses between them in the merged map, free of the drift the two measures above
+    /// carry; absent when the robots never met. The aliasing benchmark judges merges by it.
+    pub meeting_frame_error: Option<MeetingError>,
     /// The translation of `T_β,APE` as a percentage of β's path length.
     pub beta_alignment_percent_of_path: f64,
     /// β's trajectory placed through α's alignment, against β's ground truth: metres and degrees.
@@ -239,6 +244,12 @@ fn alignment_metrics(
         }
         _ => return Err("no pose with ground truth to anchor the frames".to_owned()),
     };
+    let meeting_frame_error = meeting_frame_error(
+        (&gt_alpha, &est_alpha),
+        (&gt_beta, &est_beta),
+        &alpha_from_beta,
+        MEETING_RADIUS_M,
+    );
     let beta_path_m = path_length_m(&gt_beta).max(f64::MIN_POSITIVE);
     let joined_via = (shared_keyframes == 0)
         .then(|| {
@@ -262,6 +273,7 @@ fn alignment_metrics(
         beta_alignment_percent_of_path: 100.0 * result.beta_alignment_error.translation_m / beta_path_m,
         beta_alignment_error: result.beta_alignment_error,
         anchored_frame_error,
+        meeting_frame_error,
         beta_in_alpha_ate_m: result.beta_in_alpha.translation_m,
         beta_in_alpha_are_deg: result.beta_in_alpha.rotation_deg,
     })

@@ -14,12 +14,15 @@ fn main() -> anyhow::Result<()> {
                 for variant in &settings.variants {
                     for row in run_one(settings, world, seed, variant, &registry, out)? {
                         eprintln!(
-                            "{world} seed {seed} {} (β = robot {}): {} ({:?} m, {:?}°), {} loops, {:.0} s",
+                            "{world} seed {seed} {} (β = robot {}): {} ({:?} m, {:?}° by {}; T_β,APE {:?} m, {:?}°), {} loops, {:.0} s",
                             variant.name,
                             row.beta_robot,
                             row.outcome,
                             row.frame_error_m,
                             row.frame_error_deg,
+                            row.judged_by,
+                            row.t_beta_ape_m,
+                            row.t_beta_ape_deg,
                             row.inter_robot_loops,
                             row.run_wall_s
                         );
