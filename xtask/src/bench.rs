@@ -98,7 +98,7 @@ pub const PROFILES: &[BenchProfile] = &[
     },
     BenchProfile {
         name: "aliasing",
-        summary: "false and true inter-robot merges in worlds that alias (urban grid), ten seeds, merge rules on vs off",
+        summary: "false and true inter-robot merges in worlds that alias (urban grid, identical blocks), judged where the robots met, ten seeds each, merge rules on vs off",
         package: "skid-bench",
         binary: "skid-bench-aliasing",
     },

@@ -58,7 +58,7 @@ pub struct AliasingSettings {
 impl Default for AliasingSettings {
     fn default() -> Self {
         Self {
-            worlds: vec!["urban".to_owned()],
+            worlds: vec!["urban".to_owned(), "blocks".to_owned()],
             seeds: (1..=10).collect(),
             variants: vec![
                 Variant {
