@@ -133,14 +133,9 @@ pub fn anchored_frame_error(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::{Translation3, UnitQuaternion, Vector3};
+    use nalgebra::Vector3;
 
-    fn pose(x: f64, y: f64, yaw_deg: f64) -> Pose {
-        Pose::from_parts(
-            Translation3::new(x, y, 0.0),
-            UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
-        )
-    }
+    use crate::geometry::planar_pose as pose;
 
     /// Two straight routes, each robot's estimate in its own frame (its first pose at the origin).
     fn straight(start: Pose, count: usize) -> (Vec<Pose>, Vec<Pose>) {

@@ -48,6 +48,15 @@ pub fn apply_similarity(target_from_source: &Similarity3<f64>, pose: &Pose) -> P
     )
 }
 
+/// A pose on the ground plane at (x, y), turned by `yaw_deg` (test scenes).
+#[cfg(test)]
+pub(crate) fn planar_pose(x: f64, y: f64, yaw_deg: f64) -> Pose {
+    Pose::from_parts(
+        nalgebra::Translation3::new(x, y, 0.0),
+        UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

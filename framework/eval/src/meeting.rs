@@ -90,14 +90,8 @@ fn median(values: &mut [f64]) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::{Translation3, UnitQuaternion};
 
-    fn pose(x: f64, y: f64, yaw_deg: f64) -> Pose {
-        Pose::from_parts(
-            Translation3::new(x, y, 0.0),
-            UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
-        )
-    }
+    use crate::geometry::planar_pose as pose;
 
     /// A robot's (ground truth, estimate) poses.
     type Robot = (Vec<Pose>, Vec<Pose>);
