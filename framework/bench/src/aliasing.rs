@@ -63,7 +63,10 @@ impl Default for AliasingSettings {
             variants: vec![
                 Variant {
                     name: "merge rules on".to_owned(),
-                    sets: vec!["loops.ambiguous_rival_ratio=0.5".to_owned()],
+                    sets: vec![
+                        "loops.ambiguous_rival_ratio=0.5".to_owned(),
+                        "verifier.pcm.consistency.together_within_s=1.0".to_owned(),
+                    ],
                 },
                 Variant {
                     name: "no merge rules".to_owned(),
@@ -73,6 +76,7 @@ impl Default for AliasingSettings {
                         "verifier.pcm.consistency.min_spread_m=0".to_owned(),
                         "verifier.pcm.consistency.cycle_tolerance_m=1e9".to_owned(),
                         "verifier.pcm.consistency.cycle_tolerance_deg=1e9".to_owned(),
+                        "verifier.pcm.consistency.together_within_s=0".to_owned(),
                     ],
                 },
             ],

@@ -15,6 +15,8 @@ pub struct HostGraph<'a> {
     pub chains: &'a OdometryChains,
     pub backend: Option<&'a dyn GraphView>,
     pub loops: &'a BTreeMap<LoopId, LoopClosure>,
+    /// When each known keyframe (own and peers') was recorded.
+    pub stamps: &'a BTreeMap<KeyframeId, u64>,
     /// Frames of `b` in `a` composed through third robots (see
     /// [`GraphView::frames_through_others`]); `None` when the host keeps none.
     pub through_others: Option<FramesThroughOthers<'a>>,
@@ -37,6 +39,10 @@ impl GraphView for HostGraph<'_> {
 
     fn loops(&self) -> Vec<LoopClosure> {
         self.loops.values().cloned().collect()
+    }
+
+    fn keyframe_stamp_nanos(&self, id: KeyframeId) -> Option<u64> {
+        self.stamps.get(&id).copied()
     }
 
     fn frames_through_others(&self, a: RobotId, b: RobotId) -> Vec<(RobotId, Pose)> {

@@ -78,6 +78,9 @@ pub struct RobotHost {
     /// The time cloud requests are kept in, chosen by the executor.
     clock: HostClock,
     chains: OdometryChains,
+    /// When each known keyframe was recorded: own keyframes as they are made, peers' from their
+    /// descriptors (the verifier tells robots that would have stood on each other apart).
+    keyframe_stamps: BTreeMap<KeyframeId, u64>,
     index: Option<Box<dyn DescriptorIndex>>,
     /// The fine registration's preparation of each keyframe cloud, computed once per keyframe.
     prepared: HashMap<KeyframeId, PreparedCloud>,
@@ -122,6 +125,7 @@ impl RobotHost {
             protocol,
             clock,
             chains: OdometryChains::default(),
+            keyframe_stamps: BTreeMap::new(),
             index,
             prepared: HashMap::new(),
             own: OwnTrack::default(),

@@ -6,6 +6,12 @@
 //!   `min_spread_m` (not all on one spot), and
 //! - it clearly dominates: it holds at least `dominance_ratio` times as many loops as the strongest
 //!   rival, the consistent core of the loops that disagree with most of it (a competing frame);
+//! - it keeps the robots apart: a set whose loops put the two robots on top of each other, at least two
+//!   loops joining keyframes recorded within `together_within_s` of each other and measured within
+//!   `together_within_m`, claims two vehicles stood in one place at one time, which they cannot. Two
+//!   robots approaching look-alike places in step (a grid's junction along perpendicular streets at the
+//!   same distance and speed) see a turned copy of each other's street at every moment, and their loops
+//!   agree on exactly such a frame;
 //! - it closes the cycle: where a third robot has merged with both robots, the frame through it
 //!   ([`GraphView::frames_through_others`]) agrees with most of the set's loops, at each loop's place,
 //!   within `cycle_tolerance_m` and `cycle_tolerance_deg`. Aliasing that fools one pair of robots rarely
@@ -30,6 +36,8 @@ pub(crate) struct GrantRule {
     pub dominance_ratio: f64,
     pub cycle_tolerance_m: f64,
     pub cycle_tolerance_rad: f64,
+    pub together_within_s: f64,
+    pub together_within_m: f64,
     /// The peeling fraction for the rival's core (PCM's own `min_consistent_fraction`).
     pub core_fraction: f64,
 }
@@ -41,6 +49,8 @@ pub(crate) enum Withheld {
     Clustered { spread_m: f64 },
     /// A rival hypothesis holds too many loops.
     Contested { rival: usize },
+    /// The loops put both robots in one place at one time.
+    Together { loops: usize },
     /// The frame through a third robot disagrees with most of the loops.
     Contradicted { via: RobotId, off_m: f64, off_deg: f64 },
 }
@@ -51,6 +61,10 @@ impl std::fmt::Display for Withheld {
             Self::Clustered { spread_m } => {
                 write!(f, "its loops' keyframes span only {spread_m:.1} m on one robot")
             }
+            Self::Together { loops } => write!(
+                f,
+                "{loops} of its loops put both robots in one place at one time, which two vehicles cannot be"
+            ),
             Self::Contested { rival } => write!(f, "a rival frame hypothesis is supported by {rival} loops"),
             Self::Contradicted { via, off_m, off_deg } => write!(
                 f,
@@ -72,6 +86,10 @@ pub(crate) fn judge(
         .min(spread_m(members.iter().map(|&k| loops[k].source), graph));
     if spread_m < rule.min_spread_m {
         return Some(Withheld::Clustered { spread_m });
+    }
+    let together = together(rule, loops, members, graph);
+    if together >= 2 {
+        return Some(Withheld::Together { loops: together });
     }
     let rival = rival_size(consistency, members, rule.core_fraction);
     if rival > 0 && (members.len() as f64) < rule.dominance_ratio * rival as f64 {
@@ -167,6 +185,27 @@ pub(crate) fn agrees_with_cycle(
         && through.iter().all(|(_, offsets)| {
             offsets.len() == members.len() && offsets.iter().all(|&offset| !disagrees(rule, offset))
         })
+}
+
+/// How many members join keyframes recorded within `together_within_s` of each other and measured
+/// within `together_within_m`: the two robots in one place at one time. 0 when the rule is off or the
+/// stamps are unknown.
+fn together(rule: &GrantRule, loops: &[PcmLoop], members: &[usize], graph: &dyn GraphView) -> usize {
+    if rule.together_within_s <= 0.0 || rule.together_within_m <= 0.0 {
+        return 0;
+    }
+    let within_nanos = (rule.together_within_s * 1e9) as u64;
+    members
+        .iter()
+        .filter(|&&k| {
+            let member = &loops[k];
+            let stamps = graph
+                .keyframe_stamp_nanos(member.target)
+                .zip(graph.keyframe_stamp_nanos(member.source));
+            stamps.is_some_and(|(target, source)| target.abs_diff(source) <= within_nanos)
+                && member.target_from_source.translation.vector.norm() <= rule.together_within_m
+        })
+        .count()
 }
 
 /// The largest distance between two of the keyframes (all of one robot), from the graph's poses; the

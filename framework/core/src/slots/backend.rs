@@ -75,6 +75,13 @@ pub trait GraphView {
     /// Every loop closure currently in the graph.
     fn loops(&self) -> Vec<LoopClosure>;
 
+    /// When a keyframe was recorded (its scan's stamp, nanoseconds on the fleet's clock), for the
+    /// robot's own keyframes and the peers' whose descriptors arrived; `None` when unknown (the default).
+    fn keyframe_stamp_nanos(&self, id: KeyframeId) -> Option<u64> {
+        let _ = id;
+        None
+    }
+
     /// Where robot `b`'s first keyframe sits in the frame of robot `a`'s first keyframe, as robots other
     /// than `a` and `b` know it (composed through each such robot `via` that has merged with both):
     /// one `(via, a_first_from_b_first)` per robot. Empty when no third robot has (the default). A

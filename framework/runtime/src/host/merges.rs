@@ -99,6 +99,7 @@ impl RobotHost {
             chains: &self.chains,
             backend: self.plugins.backend.as_ref().map(|backend| backend.graph()),
             loops: self.loops.accepted(),
+            stamps: &self.keyframe_stamps,
             through_others: Some(&through),
         };
         let Some(verifier) = self.plugins.verifier.as_mut() else {

@@ -65,6 +65,7 @@ impl RobotHost {
                         robot: batch.robot,
                         index: entry.keyframe_index,
                     };
+                    self.keyframe_stamps.insert(id, entry.stamp_nanos);
                     let descriptor = DescriptorBuf {
                         kind: batch.kind.clone(),
                         values,

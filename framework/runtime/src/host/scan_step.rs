@@ -125,6 +125,7 @@ impl RobotHost {
         let step_covariance = odometry_step_covariance(&config.loops, &step);
         self.chains
             .insert(id, keyframe.world_from_sensor, step_covariance);
+        self.keyframe_stamps.insert(id, keyframe.stamp_nanos);
         let keyframe = Arc::new(keyframe);
         self.own.push_keyframe(Arc::clone(&keyframe));
         outbox.extend(crate::messages::chain_message(&self.chains, self.robot, id.index));
