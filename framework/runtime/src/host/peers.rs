@@ -65,7 +65,6 @@ impl RobotHost {
                         robot: batch.robot,
                         index: entry.keyframe_index,
                     };
-                    self.keyframe_stamps.insert(id, entry.stamp_nanos);
                     let descriptor = DescriptorBuf {
                         kind: batch.kind.clone(),
                         values,
@@ -84,6 +83,8 @@ impl RobotHost {
                         );
                         continue;
                     }
+                    // Only a descriptor the index took vouches for its keyframe's stamp.
+                    self.keyframe_stamps.insert(id, entry.stamp_nanos);
                     let newest = self.held_descriptors.entry(id.robot).or_insert(id.index);
                     *newest = (*newest).max(id.index);
                     let newest_held = entry.held_of(self.robot);
