@@ -241,10 +241,11 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
                 .filter_map(|r| r.frame_error_deg)
                 .fold(0.0, f64::max);
             let mut times: Vec<f64> = true_merges.iter().filter_map(|r| r.joined_after_s).collect();
-            times.sort_by(f64::total_cmp);
-            let median_time = times
-                .get(times.len() / 2)
-                .map_or_else(|| "–".to_owned(), |t| format!("{t:.0}"));
+            let median_time = if times.is_empty() {
+                "–".to_owned()
+            } else {
+                format!("{:.0}", crate::stats::median(&mut times))
+            };
             let ape_over: Vec<&&MergeRow> = mine
                 .iter()
                 .filter(|r| {

@@ -17,6 +17,7 @@ use serde::Serialize;
 use skid_core::Pose;
 
 use crate::geometry::rotation_angle_deg;
+use crate::stats::ErrorStats;
 
 /// Two poses this close in truth are at the same place, metres: a fraction of a LiDAR's useful range,
 /// so that the two robots saw largely the same surroundings.
@@ -67,23 +68,13 @@ pub fn meeting_frame_error(
             rotations.push(rotation_angle_deg(&error.rotation));
         }
     }
+    // The same median as every other error statistic here (evo's); `None` when no pose pair met.
+    let translation = ErrorStats::from_errors("meeting translation errors", &translations).ok()?;
+    let rotation = ErrorStats::from_errors("meeting rotation errors", &rotations).ok()?;
     Some(MeetingError {
         pairs: translations.len(),
-        translation_m: median(&mut translations)?,
-        rotation_deg: median(&mut rotations)?,
-    })
-}
-
-fn median(values: &mut [f64]) -> Option<f64> {
-    if values.is_empty() {
-        return None;
-    }
-    values.sort_by(f64::total_cmp);
-    let middle = values.len() / 2;
-    Some(if values.len() % 2 == 1 {
-        values[middle]
-    } else {
-        0.5 * (values[middle - 1] + values[middle])
+        translation_m: translation.median,
+        rotation_deg: rotation.median,
     })
 }
 
