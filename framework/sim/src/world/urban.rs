@@ -40,6 +40,17 @@ pub(crate) enum Layout {
     IdenticalBlocks,
 }
 
+impl Layout {
+    /// The stream a block's or a street side's draws come from: the world's own, in turn, or a fresh
+    /// copy of the repeated one.
+    fn stream<'a>(self, world: &'a mut Rng, copy: &'a mut Rng) -> &'a mut Rng {
+        match self {
+            Layout::Irregular => world,
+            Layout::IdenticalBlocks => copy,
+        }
+    }
+}
+
 /// Street positions along one axis for `layout`.
 fn street_positions(rng: &mut Rng, layout: Layout) -> Vec<f64> {
     match layout {
@@ -138,10 +149,7 @@ pub(crate) fn generate(seed: u64, layout: Layout) -> WorldParts {
     for bj in 0..ys.len() - 1 {
         for bi in 0..nx - 1 {
             let mut copy = repeated.clone();
-            let rng: &mut Rng = match layout {
-                Layout::Irregular => &mut rng,
-                Layout::IdenticalBlocks => &mut copy,
-            };
+            let rng = layout.stream(&mut rng, &mut copy);
             let (x0, x1) = (
                 xs[bi] + SIDEWALK_OUTER_M + 1.0,
                 xs[bi + 1] - SIDEWALK_OUTER_M - 1.0,
@@ -198,10 +206,7 @@ pub(crate) fn generate(seed: u64, layout: Layout) -> WorldParts {
             let (nx_, ny_) = (-uy * side, ux * side);
             let at = |s: f64, offset: f64| (pa[0] + ux * s + nx_ * offset, pa[1] + uy * s + ny_ * offset);
             let mut copy = repeated.clone();
-            let furniture: &mut Rng = match layout {
-                Layout::Irregular => &mut rng,
-                Layout::IdenticalBlocks => &mut copy,
-            };
+            let furniture = layout.stream(&mut rng, &mut copy);
             let mut s = 14.0 + furniture.range(0.0, 10.0);
             while s < length - 14.0 {
                 let (x, y) = at(s, 7.0);

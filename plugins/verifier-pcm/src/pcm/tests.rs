@@ -166,10 +166,32 @@ fn a_merge_waits_until_earned_is_withdrawn_when_contested_and_redone_in_the_stro
     assert_eq!(accepted, (10..18).map(LoopId).collect());
 }
 
-/// [`Curves`] with a third robot that places robot 1 in robot 0's frame at `world_error`.
-struct CurvesWithThirdRobot(Pose);
+/// [`Curves`] with what a host adds: optionally a third robot that places robot 1 in robot 0's frame at
+/// a world error, and optionally keyframe stamps (keyframe `i` of robot 0 recorded at `i` seconds, of
+/// robot 1 at `i` plus a delay).
+#[derive(Default)]
+struct CurvesWith {
+    third_robot_world_error: Option<Pose>,
+    robot1_later_s: Option<u64>,
+}
 
-impl GraphView for CurvesWithThirdRobot {
+impl CurvesWith {
+    fn third_robot(world_error: Pose) -> Self {
+        Self {
+            third_robot_world_error: Some(world_error),
+            ..Self::default()
+        }
+    }
+
+    fn stamps(robot1_later_s: u64) -> Self {
+        Self {
+            robot1_later_s: Some(robot1_later_s),
+            ..Self::default()
+        }
+    }
+}
+
+impl GraphView for CurvesWith {
     fn pose(&self, id: KeyframeId) -> Option<Pose> {
         Curves.pose(id)
     }
@@ -182,10 +204,18 @@ impl GraphView for CurvesWithThirdRobot {
     fn loops(&self) -> Vec<LoopClosure> {
         Vec::new()
     }
+    fn keyframe_stamp_nanos(&self, id: KeyframeId) -> Option<u64> {
+        let robot1_later_s = self.robot1_later_s?;
+        let later_s = if id.robot.0 == 1 { robot1_later_s } else { 0 };
+        Some((u64::from(id.index) + later_s) * 1_000_000_000)
+    }
     fn frames_through_others(&self, a: RobotId, b: RobotId) -> Vec<(RobotId, Pose)> {
+        let Some(world_error) = self.third_robot_world_error else {
+            return Vec::new();
+        };
         let first = |robot| truth(KeyframeId::new(robot, 0));
         assert_eq!((a, b), (RobotId(0), RobotId(1)));
-        vec![(RobotId(2), first(0).inverse() * self.0 * first(1))]
+        vec![(RobotId(2), first(0).inverse() * world_error * first(1))]
     }
 }
 
@@ -208,21 +238,21 @@ fn a_merge_that_disagrees_with_the_frame_through_a_third_robot_is_withdrawn() {
     }
     assert_eq!(pcm.accepted().len(), 3, "with no third robot the set is granted");
     // Robot 2 has merged with both and places robot 1 where it truly is: the set is withdrawn.
-    let (accepted, retracted) = pcm.reconsider(&CurvesWithThirdRobot(Pose::identity()));
+    let (accepted, retracted) = pcm.reconsider(&CurvesWith::third_robot(Pose::identity()));
     assert!(accepted.is_empty());
     assert_eq!(retracted, vec![LoopId(1), LoopId(2), LoopId(3)]);
     assert!(pcm.accepted().is_empty());
     let update = pcm
         .add(
             aligned_loop(4, k(0, 14), k(1, 14), &wrong_world, Pose::identity()),
-            &CurvesWithThirdRobot(Pose::identity()),
+            &CurvesWith::third_robot(Pose::identity()),
         )
         .unwrap();
     let reason = update.withheld.unwrap();
     assert!(reason.contains("through robot2"), "{reason}");
     // A third robot that agrees with the set (within tolerance) grants it again.
     let nearly = wrong_world * Pose::new(Vector3::new(1.0, 0.5, 0.0), Vector3::z() * 0.02);
-    let (accepted, retracted) = pcm.reconsider(&CurvesWithThirdRobot(nearly));
+    let (accepted, retracted) = pcm.reconsider(&CurvesWith::third_robot(nearly));
     assert_eq!(accepted, vec![LoopId(1), LoopId(2), LoopId(3), LoopId(4)]);
     assert!(retracted.is_empty());
 }
@@ -236,7 +266,7 @@ fn a_pair_whose_frame_a_third_robot_confirms_is_decided_with_fewer_loops() {
     let k = KeyframeId::new;
     // Two true loops, 8 m apart on each robot, with robot 2 placing robot 1 where it truly is.
     let mut pcm = Pcm::new(params.clone()).unwrap();
-    let confirmed = CurvesWithThirdRobot(Pose::identity());
+    let confirmed = CurvesWith::third_robot(Pose::identity());
     let first = pcm
         .add(pcm_loop(1, k(0, 2), k(1, 2), Pose::identity()), &confirmed)
         .unwrap();
@@ -247,7 +277,7 @@ fn a_pair_whose_frame_a_third_robot_confirms_is_decided_with_fewer_loops() {
     // Without a third robot, or with one that places robot 1 elsewhere, the pair waits for five.
     for graph in [
         &Curves as &dyn GraphView,
-        &CurvesWithThirdRobot(Pose::new(Vector3::new(30.0, 0.0, 0.0), Vector3::zeros())),
+        &CurvesWith::third_robot(Pose::new(Vector3::new(30.0, 0.0, 0.0), Vector3::zeros())),
     ] {
         let mut pcm = Pcm::new(params.clone()).unwrap();
         for (id, index) in [(1, 2), (2, 10)] {
@@ -272,31 +302,6 @@ fn a_pair_whose_frame_a_third_robot_confirms_is_decided_with_fewer_loops() {
         .unwrap();
     }
     assert!(pcm.accepted().is_empty());
-}
-
-/// [`Curves`] with stamps: keyframe `i` of robot 0 recorded at `i` seconds, of robot 1 at `i` plus
-/// `robot1_later_s`.
-struct StampedCurves {
-    robot1_later_s: u64,
-}
-
-impl GraphView for StampedCurves {
-    fn pose(&self, id: KeyframeId) -> Option<Pose> {
-        Curves.pose(id)
-    }
-    fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
-        Curves.odometry_between(target, source)
-    }
-    fn keyframes(&self) -> Vec<KeyframeId> {
-        Vec::new()
-    }
-    fn loops(&self) -> Vec<LoopClosure> {
-        Vec::new()
-    }
-    fn keyframe_stamp_nanos(&self, id: KeyframeId) -> Option<u64> {
-        let later_s = if id.robot.0 == 1 { self.robot1_later_s } else { 0 };
-        Some((u64::from(id.index) + later_s) * 1_000_000_000)
-    }
 }
 
 /// Feeds five consistent loops that put robot 1 on robot 0's keyframes of the same index (robot 1's
@@ -328,7 +333,7 @@ fn loops_that_put_two_robots_in_one_place_at_one_time_do_not_merge_them() {
     };
     // In step: each pair of keyframes recorded at the same second, measured on top of each other.
     let mut pcm = Pcm::new(params.clone()).unwrap();
-    let last = robots_on_each_other(&mut pcm, &StampedCurves { robot1_later_s: 0 });
+    let last = robots_on_each_other(&mut pcm, &CurvesWith::stamps(0));
     assert!(pcm.accepted().is_empty(), "{last:?}");
     assert!(
         last.withheld
@@ -338,7 +343,7 @@ fn loops_that_put_two_robots_in_one_place_at_one_time_do_not_merge_them() {
     );
     // The same loops with robot 1 passing a minute later are a revisit: granted.
     let mut pcm = Pcm::new(params.clone()).unwrap();
-    let last = robots_on_each_other(&mut pcm, &StampedCurves { robot1_later_s: 60 });
+    let last = robots_on_each_other(&mut pcm, &CurvesWith::stamps(60));
     assert_eq!(last.withheld, None);
     assert_eq!(pcm.accepted().len(), 5);
     // Without stamps (a set file) the rule cannot apply.
