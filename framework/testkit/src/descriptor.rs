@@ -89,6 +89,23 @@ pub fn check_descriptor(mut make: impl FnMut() -> Box<dyn Descriptor>, expect: &
         .map(|c| c.distance)
         .expect("both stored");
     assert!(distance_to_other > 0.0, "different places differ");
+    if let Some(between) = index.distance_between(here_id, other_id) {
+        assert!(
+            (between - distance_to_other).abs() <= 1e-6 * distance_to_other.max(1.0),
+            "distance_between {between} is the query's distance {distance_to_other}"
+        );
+        assert!(
+            index
+                .distance_between(here_id, here_id)
+                .is_some_and(|d| d.abs() < 1e-6),
+            "distance_between a keyframe and itself is zero"
+        );
+    }
+    assert_eq!(
+        index.distance_between(here_id, KeyframeId::new(7, 7)),
+        None,
+        "no distance to a keyframe the index does not hold"
+    );
 
     for &yaw_deg in &expect.yaws_deg {
         let query = descriptor

@@ -13,6 +13,8 @@
 //! Memory: each stored keyframe keeps its code image, template and mask, one byte per pixel each
 //! (3 × 28,800 bytes with the defaults).
 
+use std::collections::BTreeMap;
+
 use skid_core::slots::{DescriptorBuf, DescriptorIndex, PlaceCandidate};
 use skid_core::{KeyframeId, PluginError, PluginResult};
 
@@ -45,6 +47,8 @@ pub struct IrisIndex {
     shape: IrisShape,
     bank: FilterBank,
     entries: Vec<Entry>,
+    /// Where each keyframe sits in `entries`.
+    positions: BTreeMap<KeyframeId, usize>,
     tree: KeyTree,
 }
 
@@ -90,6 +94,7 @@ impl IrisIndex {
             shape,
             bank,
             entries: Vec::new(),
+            positions: BTreeMap::new(),
             tree: KeyTree::new("iris", shape.num_rings, policy),
         }
     }
@@ -126,6 +131,7 @@ impl DescriptorIndex for IrisIndex {
         self.tree
             .push(&row_key(&codes, self.shape.num_columns, self.shape.num_slices))?;
         let features = self.bank.features(&self.bank.spectra(&codes));
+        self.positions.insert(id, self.entries.len());
         self.entries.push(Entry { id, codes, features });
         Ok(())
     }
@@ -168,6 +174,23 @@ impl DescriptorIndex for IrisIndex {
         candidates.sort_by(|a, b| a.distance.total_cmp(&b.distance));
         candidates.truncate(k);
         Ok(candidates)
+    }
+
+    fn distance_between(&self, a: KeyframeId, b: KeyframeId) -> Option<f64> {
+        let (a, b) = (
+            &self.entries[*self.positions.get(&a)?],
+            &self.entries[*self.positions.get(&b)?],
+        );
+        let spectra = self.bank.spectra(&a.codes);
+        Some(
+            compare(
+                &self.bank,
+                &self.shape,
+                (&spectra, &a.features),
+                (&b.codes, &b.features),
+            )
+            .0,
+        )
     }
 
     fn len(&self) -> usize {

@@ -12,6 +12,8 @@
 //! Yaw hint: the query sees in sector j what the candidate sees in sector j − s, so the query is the
 //! candidate turned by +s sectors and the yaw of candidate_from_query is −s · 360° / N, in (−180°, 180°].
 
+use std::collections::BTreeMap;
+
 use skid_core::slots::{DescriptorBuf, DescriptorIndex, PlaceCandidate};
 use skid_core::{KeyframeId, PluginError, PluginResult};
 
@@ -129,6 +131,8 @@ pub fn wrap_deg(angle_deg: f64) -> f64 {
 pub struct ScanContextIndex {
     shape: ScanContextShape,
     ids: Vec<KeyframeId>,
+    /// Where each keyframe sits in `ids`.
+    positions: BTreeMap<KeyframeId, usize>,
     contexts: Vec<Prepared>,
     tree: KeyTree,
 }
@@ -138,6 +142,7 @@ impl ScanContextIndex {
         Self {
             shape,
             ids: Vec::new(),
+            positions: BTreeMap::new(),
             contexts: Vec::new(),
             tree: KeyTree::new("scan_context", shape.num_rings, policy),
         }
@@ -167,6 +172,7 @@ impl DescriptorIndex for ScanContextIndex {
         self.tree
             .push(&ring_key(&descriptor.values, self.shape.num_sectors))?;
         self.contexts.push(Prepared::new(&descriptor.values, &self.shape));
+        self.positions.insert(id, self.ids.len());
         self.ids.push(id);
         Ok(())
     }
@@ -202,6 +208,11 @@ impl DescriptorIndex for ScanContextIndex {
         candidates.sort_by(|a, b| a.distance.total_cmp(&b.distance));
         candidates.truncate(k);
         Ok(candidates)
+    }
+
+    fn distance_between(&self, a: KeyframeId, b: KeyframeId) -> Option<f64> {
+        let (a, b) = (self.positions.get(&a)?, self.positions.get(&b)?);
+        Some(distance(&self.contexts[*a], &self.contexts[*b], &self.shape).0)
     }
 
     fn len(&self) -> usize {

@@ -11,6 +11,8 @@
 //! yaw of candidate_from_query is −s·w, reported in (−180°, 180°]. (The public C++ version reports
 //! (argmin + 1) sectors, one sector off.) A keyframe with an all-zero A-SOLiD gives no hint.
 
+use std::collections::BTreeMap;
+
 use skid_core::slots::{DescriptorBuf, DescriptorIndex, PlaceCandidate};
 use skid_core::{KeyframeId, PluginError, PluginResult};
 
@@ -21,6 +23,8 @@ pub struct SolidIndex {
     num_range: usize,
     num_azimuth: usize,
     ids: Vec<KeyframeId>,
+    /// Where each keyframe sits in `ids`.
+    positions: BTreeMap<KeyframeId, usize>,
     /// A-SOLiD of every entry scaled to unit sum (all zero when it has no points), flattened.
     azimuth: Vec<f32>,
     tree: KeyTree,
@@ -32,6 +36,7 @@ impl SolidIndex {
             num_range,
             num_azimuth,
             ids: Vec::new(),
+            positions: BTreeMap::new(),
             azimuth: Vec::new(),
             tree: KeyTree::new("solid", num_range, policy),
         }
@@ -108,6 +113,7 @@ impl DescriptorIndex for SolidIndex {
     fn insert(&mut self, id: KeyframeId, descriptor: DescriptorBuf) -> PluginResult<()> {
         let (key, azimuth) = self.split(&descriptor)?;
         self.tree.push(&key)?;
+        self.positions.insert(id, self.ids.len());
         self.ids.push(id);
         self.azimuth.extend(azimuth);
         Ok(())
@@ -124,27 +130,34 @@ impl DescriptorIndex for SolidIndex {
         let nearest = self.tree.nearest(&key, k, &|position| !exclude(ids[position]))?;
         let mut candidates: Vec<PlaceCandidate> = nearest
             .into_iter()
-            .map(|(position, _)| {
-                let stored = self.tree.key(position);
-                let squared: f64 = stored
-                    .iter()
-                    .zip(&key)
-                    .map(|(&a, &b)| (f64::from(a) - f64::from(b)).powi(2))
-                    .sum();
-                PlaceCandidate {
-                    id: self.ids[position],
-                    distance: 0.5 * squared,
-                    yaw_hint_rad: self.yaw_hint(&azimuth, position),
-                }
+            .map(|(position, _)| PlaceCandidate {
+                id: self.ids[position],
+                distance: cosine_distance(self.tree.key(position), &key),
+                yaw_hint_rad: self.yaw_hint(&azimuth, position),
             })
             .collect();
         candidates.sort_by(|a, b| a.distance.total_cmp(&b.distance));
         Ok(candidates)
     }
 
+    fn distance_between(&self, a: KeyframeId, b: KeyframeId) -> Option<f64> {
+        let (a, b) = (self.positions.get(&a)?, self.positions.get(&b)?);
+        Some(cosine_distance(self.tree.key(*a), self.tree.key(*b)))
+    }
+
     fn len(&self) -> usize {
         self.ids.len()
     }
+}
+
+/// 1 − cos of two unit R-SOLiD keys, as ½‖a − b‖².
+fn cosine_distance(a: &[f32], b: &[f32]) -> f64 {
+    let squared: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2))
+        .sum();
+    0.5 * squared
 }
 
 #[cfg(test)]

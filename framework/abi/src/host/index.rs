@@ -81,6 +81,16 @@ impl DescriptorIndex for ExactL2Index {
         Ok(candidates)
     }
 
+    fn distance_between(&self, a: KeyframeId, b: KeyframeId) -> Option<f64> {
+        let values = |id: KeyframeId| {
+            self.entries
+                .iter()
+                .find(|(stored, _)| *stored == id)
+                .map(|(_, v)| v)
+        };
+        Some(l2(values(a)?, values(b)?))
+    }
+
     fn len(&self) -> usize {
         self.entries.len()
     }

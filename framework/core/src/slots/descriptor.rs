@@ -61,6 +61,14 @@ pub trait DescriptorIndex: Send {
         exclude: &dyn Fn(KeyframeId) -> bool,
     ) -> PluginResult<Vec<PlaceCandidate>>;
 
+    /// The distance (as [`DescriptorIndex::query`] reports it) between two stored keyframes, for a
+    /// verifier that asks whether two keyframes look like one place; `None` when either is not stored
+    /// or the index cannot say (the default).
+    fn distance_between(&self, a: KeyframeId, b: KeyframeId) -> Option<f64> {
+        let _ = (a, b);
+        None
+    }
+
     /// Number of stored descriptors.
     fn len(&self) -> usize;
 
