@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use skid_core::slots::{GraphView, LoopClosure, RelativePose};
+use skid_core::slots::{DescriptorIndex, GraphView, LoopClosure, RelativePose};
 use skid_core::{KeyframeId, LoopId, Pose, RobotId};
 use skid_geometry::OdometryChains;
 
@@ -20,6 +20,9 @@ pub struct HostGraph<'a> {
     /// Frames of `b` in `a` composed through third robots (see
     /// [`GraphView::frames_through_others`]); `None` when the host keeps none.
     pub through_others: Option<FramesThroughOthers<'a>>,
+    /// The descriptors the robot holds (own and peers'), and the largest distance at which two of them
+    /// show one place (a candidate's limit); `None` when the robot has no descriptor.
+    pub descriptors: Option<(&'a dyn DescriptorIndex, f64)>,
 }
 
 impl GraphView for HostGraph<'_> {
@@ -47,5 +50,10 @@ impl GraphView for HostGraph<'_> {
 
     fn frames_through_others(&self, a: RobotId, b: RobotId) -> Vec<(RobotId, Pose)> {
         self.through_others.map_or_else(Vec::new, |through| through(a, b))
+    }
+
+    fn looks_alike(&self, a: KeyframeId, b: KeyframeId) -> Option<bool> {
+        let (index, limit) = self.descriptors?;
+        index.distance_between(a, b).map(|distance| distance <= limit)
     }
 }

@@ -82,6 +82,15 @@ pub trait GraphView {
         None
     }
 
+    /// Whether the place recognition takes two keyframes (of any robots) for one place: their
+    /// descriptors are as close as a loop candidate's must be. `None` when either descriptor is not
+    /// held or the descriptor cannot compare stored keyframes (the default). A verifier checks what a
+    /// frame hypothesis predicts with it: keyframes the hypothesis puts in one place should look alike.
+    fn looks_alike(&self, a: KeyframeId, b: KeyframeId) -> Option<bool> {
+        let _ = (a, b);
+        None
+    }
+
     /// Where robot `b`'s first keyframe sits in the frame of robot `a`'s first keyframe, as robots other
     /// than `a` and `b` know it (composed through each such robot `via` that has merged with both):
     /// one `(via, a_first_from_b_first)` per robot. Empty when no third robot has (the default). A

@@ -99,6 +99,7 @@ impl RobotHost {
             false => guess,
         };
         let closure = self.loops.new_loop(pair, target_from_source, loop_information());
+        tracing::debug!(robot = %self.robot, id = ?closure.id, target = %candidate.target, source = %candidate.source, translation_m = ?target_from_source.translation.vector.as_slice(), "loop candidate: registered");
         let verdict = self.judge(
             config,
             LoopCandidate {
@@ -119,6 +120,7 @@ impl RobotHost {
         submitted: LoopCandidate<'_>,
     ) -> Result<Verdict, RuntimeError> {
         self.refresh_frames();
+        let limit = self.candidate_distance_limit(config);
         let Some(verifier) = self.plugins.verifier.as_mut() else {
             return Ok(Verdict {
                 accepted: vec![submitted.closure.id],
@@ -136,6 +138,7 @@ impl RobotHost {
             loops: self.loops.accepted(),
             stamps: &self.keyframe_stamps,
             through_others: Some(&through),
+            descriptors: self.index.as_deref().map(|index| (index, limit)),
         };
         let verdict = verifier.submit(&submitted, &graph);
         self.add_stage_ms("verifier", started.elapsed().as_secs_f64() * 1e3);

@@ -91,7 +91,18 @@ impl RobotHost {
             .filter_map(|frame| Some((frame.robot, frame.sender_first_from_robot_first.to_pose()?)))
             .collect();
         self.frames.record_report(from, report);
+        self.reconsider_loops(config, outbox)
+    }
+
+    /// Lets the verifier re-judge the loops submitted so far against the graph as it is now: new frames
+    /// through third robots, new keyframes on which a frame hypothesis's predictions can be checked.
+    pub(crate) fn reconsider_loops(
+        &mut self,
+        config: &ResolvedConfig,
+        outbox: &mut Vec<Message>,
+    ) -> Result<(), RuntimeError> {
         self.refresh_frames();
+        let limit = self.candidate_distance_limit(config);
         let me = self.robot;
         let book = &self.frames;
         let through = move |a: RobotId, b: RobotId| book.through_others(me, a, b);
@@ -101,10 +112,12 @@ impl RobotHost {
             loops: self.loops.accepted(),
             stamps: &self.keyframe_stamps,
             through_others: Some(&through),
+            descriptors: self.index.as_deref().map(|index| (index, limit)),
         };
         let Some(verifier) = self.plugins.verifier.as_mut() else {
             return Ok(());
         };
+        let _span = tracing::debug_span!("verifier", robot = %me).entered();
         let verdict = verifier.reconsider(&graph);
         let verdict = verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?;
         self.apply_verdict(config, verdict, outbox)

@@ -181,6 +181,8 @@ impl RobotHost {
             }
         }
 
+        // The new keyframe can confirm or refute what the merges so far predicted.
+        self.reconsider_loops(config, outbox)?;
         if self.graph.keyframe_added(config.loops.optimize_every_keyframes) {
             self.optimize(config)?;
         }
