@@ -220,13 +220,14 @@ pub fn run_pcm(
 
 /// The parameters `skid pcm` and the benchmark use: PCM's defaults, deciding from the first loop on.
 /// A set is verified as Mangelson et al. verify it, so the runtime's earned-merge rules (spread,
-/// dominance over a rival set) are off: a set file holds one pair's loops as a batch, with no later
-/// loops to settle a contest.
+/// dominance over a rival set, predictions checked on descriptors) are off: a set file holds one pair's
+/// loops as a batch, with no later loops to settle a contest and no descriptors.
 pub fn set_params() -> PcmParams {
     PcmParams {
         min_loops_before_decision: 1,
         min_spread_m: 0.0,
         dominance_ratio: 0.0,
+        predicted_overlap_m: 0.0,
         ..PcmParams::default()
     }
 }

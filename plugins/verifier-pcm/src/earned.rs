@@ -12,6 +12,8 @@
 //!   robots approaching look-alike places in step (a grid's junction along perpendicular streets at the
 //!   same distance and speed) see a turned copy of each other's street at every moment, and their loops
 //!   agree on exactly such a frame;
+//! - its predictions hold: the other keyframe pairs its frame puts in one place, beyond its loops, look
+//!   alike to the descriptor as well ([`crate::predicted`]);
 //! - it closes the cycle: where a third robot has merged with both robots, the frame through it
 //!   ([`GraphView::frames_through_others`]) agrees with most of the set's loops, at each loop's place,
 //!   within `cycle_tolerance_m` and `cycle_tolerance_deg`. Aliasing that fools one pair of robots rarely
@@ -23,11 +25,12 @@
 //! al., ICRA 2018).
 
 use skid_core::slots::GraphView;
-use skid_core::{KeyframeId, Pose, RobotId};
+use skid_core::{KeyframeId, RobotId};
 
 use crate::clique::Graph;
 use crate::consistency::PcmLoop;
 use crate::dense::consistent_core;
+use crate::predicted::{OverlapRule, placements, predicted_overlaps};
 
 /// What decides a grant.
 #[derive(Clone, Copy, Debug)]
@@ -40,6 +43,7 @@ pub(crate) struct GrantRule {
     pub together_within_m: f64,
     /// The peeling fraction for the rival's core (PCM's own `min_consistent_fraction`).
     pub core_fraction: f64,
+    pub overlaps: OverlapRule,
 }
 
 /// Why a hypothesis is not granted (yet), or `None` when it is.
@@ -51,6 +55,8 @@ pub(crate) enum Withheld {
     Contested { rival: usize },
     /// The loops put both robots in one place at one time.
     Together { loops: usize },
+    /// Few of the keyframe pairs its frame puts in one place, beyond its loops, look alike.
+    Unconfirmed { pairs: usize, alike: usize },
     /// The frame through a third robot disagrees with most of the loops.
     Contradicted { via: RobotId, off_m: f64, off_deg: f64 },
 }
@@ -64,6 +70,10 @@ impl std::fmt::Display for Withheld {
             Self::Together { loops } => write!(
                 f,
                 "{loops} of its loops put both robots in one place at one time, which two vehicles cannot be"
+            ),
+            Self::Unconfirmed { pairs, alike } => write!(
+                f,
+                "of {pairs} keyframe pairs its frame puts in one place beyond its loops, only {alike} look alike"
             ),
             Self::Contested { rival } => write!(f, "a rival frame hypothesis is supported by {rival} loops"),
             Self::Contradicted { via, off_m, off_deg } => write!(
@@ -95,6 +105,13 @@ pub(crate) fn judge(
     if rival > 0 && (members.len() as f64) < rule.dominance_ratio * rival as f64 {
         return Some(Withheld::Contested { rival });
     }
+    let predicted = predicted_overlaps(&rule.overlaps, loops, members, graph);
+    if rule.overlaps.refutes(predicted) {
+        return Some(Withheld::Unconfirmed {
+            pairs: predicted.pairs,
+            alike: predicted.alike,
+        });
+    }
     contradiction(rule, loops, members, graph)
 }
 
@@ -105,26 +122,12 @@ fn offsets_through_others(
     members: &[usize],
     graph: &dyn GraphView,
 ) -> Vec<(RobotId, Vec<(f64, f64)>)> {
+    // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b.
+    let placed = placements(loops, members, graph);
     let Some(first) = members.first().and_then(|&k| loops.get(k)) else {
         return Vec::new();
     };
     let (a, b) = (first.target.robot, first.source.robot);
-    let start = |robot| KeyframeId { robot, index: 0 };
-    // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b.
-    let placed: Vec<(Pose, Pose)> = members
-        .iter()
-        .filter_map(|&k| {
-            let member = &loops[k];
-            let a_first_from_target = graph
-                .odometry_between(start(a), member.target)?
-                .target_from_source;
-            let b_first_from_source = graph
-                .odometry_between(start(b), member.source)?
-                .target_from_source;
-            let frame = a_first_from_target * member.target_from_source * b_first_from_source.inverse();
-            Some((frame, b_first_from_source))
-        })
-        .collect();
     if placed.is_empty() {
         return Vec::new();
     }

@@ -9,7 +9,9 @@
 //!   peeling; or, with `min_consistent_fraction = 1`, the maximum clique), updated as loops arrive, and
 //!   earlier acceptances are retracted when the accepted set changes. Between two robots the set is a
 //!   frame hypothesis, granted only when its loops are spread over space and it clearly dominates the
-//!   strongest rival hypothesis ([`earned`]); a granted set that stops dominating is retracted.
+//!   strongest rival hypothesis ([`earned`]), and while the other keyframe pairs its frame puts in one
+//!   place look alike too ([`predicted`]); a granted set that stops dominating or whose predictions fail
+//!   is retracted.
 //! - `gnc`: the fitness stage only, accepting the rest; pair it with `[backend.pgo] robust = "gnc"` so
 //!   graduated non-convexity with a truncated-least-squares loss rejects outliers in the back-end.
 //!
@@ -22,6 +24,7 @@ mod earned;
 pub mod fitness;
 pub mod lie;
 pub mod pcm;
+mod predicted;
 pub mod verifier;
 
 use skid_core::slots::Verifier;

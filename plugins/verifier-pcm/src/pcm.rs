@@ -28,6 +28,7 @@ use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::dense::consistent_core;
 use crate::earned::{GrantRule, Withheld, agrees_with_cycle, judge};
 use crate::lie::chi2_quantile;
+use crate::predicted::OverlapRule;
 
 /// Parameters of PCM.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -74,6 +75,15 @@ pub struct PcmParams {
     /// frame (the cycle test above): the cycle is the evidence the extra loops would give. The pairwise
     /// test and the grant rules are unchanged. 0 turns it off.
     pub min_loops_with_cycle: usize,
+    /// An inter-robot set is granted only while the keyframe pairs its frame puts within
+    /// `predicted_overlap_m` of each other, farther than `predicted_beyond_m` from its loops' keyframes,
+    /// look alike to the descriptor (within a candidate's distance) at least `min_alike_fraction` of the
+    /// time, once there are `min_predicted_pairs` of them ([`crate::predicted`]): a look-alike stretch
+    /// of two different places stops looking alike beyond it. `predicted_overlap_m = 0` turns it off.
+    pub predicted_overlap_m: f64,
+    pub predicted_beyond_m: f64,
+    pub min_predicted_pairs: usize,
+    pub min_alike_fraction: f64,
 }
 
 impl Default for PcmParams {
@@ -91,6 +101,10 @@ impl Default for PcmParams {
             together_within_s: 0.0,
             together_within_m: 2.0,
             min_loops_with_cycle: 2,
+            predicted_overlap_m: 3.0,
+            predicted_beyond_m: 10.0,
+            min_predicted_pairs: 10,
+            min_alike_fraction: 0.3,
         }
     }
 }
@@ -117,6 +131,8 @@ impl PcmParams {
             (self.cycle_tolerance_deg, "cycle_tolerance_deg"),
             (self.together_within_s, "together_within_s"),
             (self.together_within_m, "together_within_m"),
+            (self.predicted_overlap_m, "predicted_overlap_m"),
+            (self.predicted_beyond_m, "predicted_beyond_m"),
         ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(ParamError::at(
@@ -124,6 +140,12 @@ impl PcmParams {
                     format!("must be 0 (off) or positive, got {value}"),
                 ));
             }
+        }
+        if !(0.0..=1.0).contains(&self.min_alike_fraction) {
+            return Err(ParamError::at(
+                "min_alike_fraction",
+                format!("must lie in [0, 1], got {}", self.min_alike_fraction),
+            ));
         }
         Ok(())
     }
@@ -137,6 +159,12 @@ impl PcmParams {
             together_within_s: self.together_within_s,
             together_within_m: self.together_within_m,
             core_fraction: self.min_consistent_fraction,
+            overlaps: OverlapRule {
+                radius_m: self.predicted_overlap_m,
+                beyond_m: self.predicted_beyond_m,
+                min_pairs: self.min_predicted_pairs,
+                min_alike_fraction: self.min_alike_fraction,
+            },
         }
     }
 }

@@ -462,3 +462,99 @@ fn the_incremental_clique_matches_a_full_solve() {
         );
     }
 }
+
+/// Two robots on straight streets: robot 0 along y = 0, robot 1 along y = `street_y_m` (0: the same
+/// street, robot 1 starting at robot 0's keyframe 20), keyframes every 2 m. The descriptor takes two
+/// keyframes for one place when they truly are within 3 m, and robot 1's first six keyframes for
+/// robot 0's keyframes 20–25: a look-alike stretch. Robot 1's keyframes up to `robot1_known` are known.
+struct Streets {
+    street_y_m: f64,
+    robot1_known: u32,
+}
+
+impl Streets {
+    fn truth(&self, id: KeyframeId) -> Pose {
+        let k = f64::from(id.index);
+        let position = match id.robot.0 {
+            0 => Vector3::new(2.0 * k, 0.0, 0.0),
+            _ if self.street_y_m == 0.0 => Vector3::new(40.0 + 2.0 * k, 0.0, 0.0),
+            _ => Vector3::new(2.0 * k, self.street_y_m, 0.0),
+        };
+        Pose::new(position, Vector3::zeros())
+    }
+
+    fn known(&self, id: KeyframeId) -> bool {
+        id.robot.0 == 0 && id.index < 50 || id.robot.0 == 1 && id.index <= self.robot1_known
+    }
+}
+
+impl GraphView for Streets {
+    fn pose(&self, id: KeyframeId) -> Option<Pose> {
+        self.known(id).then(|| self.truth(id))
+    }
+    fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
+        (target.robot == source.robot && self.known(target) && self.known(source)).then(|| RelativePose {
+            target_from_source: self.truth(target).inverse() * self.truth(source),
+            covariance: Information::identity() * 1e-5 * f64::from(target.index.abs_diff(source.index)),
+        })
+    }
+    fn keyframes(&self) -> Vec<KeyframeId> {
+        (0..50)
+            .map(|i| KeyframeId::new(0, i))
+            .chain((0..=self.robot1_known).map(|i| KeyframeId::new(1, i)))
+            .collect()
+    }
+    fn loops(&self) -> Vec<LoopClosure> {
+        Vec::new()
+    }
+    fn looks_alike(&self, a: KeyframeId, b: KeyframeId) -> Option<bool> {
+        let truly = (self.truth(a).translation.vector - self.truth(b).translation.vector).norm() <= 3.0;
+        let (zero, one) = if a.robot.0 == 0 { (a, b) } else { (b, a) };
+        let aliased = one.index <= 5 && zero.index == 20 + one.index;
+        Some(truly || aliased)
+    }
+}
+
+/// Six loops joining robot 1's first keyframes to robot 0's keyframes 20–25 as one place, judged while
+/// robot 1 holds `robot1_known` keyframes, then again with 30.
+fn merge_then_drive_on(street_y_m: f64) -> (Vec<LoopId>, Vec<LoopId>) {
+    let mut pcm = Pcm::new(PcmParams::default()).unwrap();
+    let k = KeyframeId::new;
+    let mut graph = Streets {
+        street_y_m,
+        robot1_known: 5,
+    };
+    let mut granted = Vec::new();
+    for index in 0..=5u32 {
+        let closure = LoopClosure {
+            id: LoopId(u64::from(index)),
+            target: k(0, 20 + index),
+            source: k(1, index),
+            target_from_source: Pose::identity(),
+            information: Information::identity() * 1e4,
+        };
+        let update = pcm.add(PcmLoop::from_closure(&closure).unwrap(), &graph).unwrap();
+        granted.extend(update.accepted);
+    }
+    graph.robot1_known = 30;
+    let (_, withdrawn) = pcm.reconsider(&graph);
+    (granted, withdrawn)
+}
+
+#[test]
+fn a_merge_whose_frame_predicts_places_that_do_not_look_alike_is_withdrawn() {
+    // Robot 1 drives a parallel street 50 m away whose first 10 m look like robot 0's street: the six
+    // loops agree, are spread and unrivalled, and nothing beyond them is predicted yet: granted.
+    let (granted, withdrawn) = merge_then_drive_on(50.0);
+    assert_eq!(
+        granted.len(),
+        6,
+        "granted while nothing beyond the loops is predicted"
+    );
+    // Robot 1 drives on: the frame lays its next 50 m along robot 0's street, where the descriptors
+    // disagree. The merge is withdrawn.
+    assert_eq!(withdrawn.len(), 6, "withdrawn once its predictions fail");
+    // On the same street the predictions hold and the merge stays.
+    let (granted, withdrawn) = merge_then_drive_on(0.0);
+    assert_eq!((granted.len(), withdrawn.len()), (6, 0));
+}
