@@ -224,6 +224,19 @@ pub fn max_clique_within(
     Ok(Some(best))
 }
 
+/// The subgraph of `graph` on `vertices`: vertex `i` of the result is `vertices[i]`.
+pub fn induced(graph: &Graph, vertices: &[usize]) -> Graph {
+    let mut sub = Graph::new(vertices.len());
+    for (i, &a) in vertices.iter().enumerate() {
+        for (j, &b) in vertices.iter().enumerate().skip(i + 1) {
+            if graph.neighbours(a).contains(b) {
+                sub.add_edge(i, j);
+            }
+        }
+    }
+    sub
+}
+
 /// An exact maximum clique of the whole graph within `budget` search nodes.
 pub fn max_clique(graph: &Graph, budget: u64) -> Result<Vec<usize>, BudgetExceeded> {
     let mut all = BitSet::new(graph.len());

@@ -27,7 +27,9 @@
 use skid_core::slots::GraphView;
 use skid_core::{KeyframeId, RobotId};
 
-use crate::clique::Graph;
+use std::collections::BTreeSet;
+
+use crate::clique::{Graph, induced};
 use crate::consistency::PcmLoop;
 use crate::dense::consistent_core;
 use crate::predicted::{OverlapRule, placements, predicted_overlaps};
@@ -84,12 +86,14 @@ impl std::fmt::Display for Withheld {
     }
 }
 
-/// Judges the hypothesis `members` (indices into `loops`, vertices of `consistency`).
+/// Judges the hypothesis `members` (indices into `loops`, vertices of `consistency`); the loops in
+/// `refuted` (of hypotheses whose predictions failed) contest nothing.
 pub(crate) fn judge(
     rule: &GrantRule,
     loops: &[PcmLoop],
     consistency: &Graph,
     members: &[usize],
+    refuted: &BTreeSet<usize>,
     graph: &dyn GraphView,
 ) -> Option<Withheld> {
     let spread_m = spread_m(members.iter().map(|&k| loops[k].target), graph)
@@ -101,7 +105,7 @@ pub(crate) fn judge(
     if together >= 2 {
         return Some(Withheld::Together { loops: together });
     }
-    let rival = rival_size(consistency, members, rule.core_fraction);
+    let rival = rival_size(consistency, members, refuted, rule.core_fraction);
     if rival > 0 && (members.len() as f64) < rule.dominance_ratio * rival as f64 {
         return Some(Withheld::Contested { rival });
     }
@@ -234,9 +238,14 @@ fn spread_m(keyframes: impl Iterator<Item = KeyframeId>, graph: &dyn GraphView) 
 
 /// The size of the strongest competing hypothesis: the consistent core of the loops outside `members`
 /// that are consistent with fewer than half of `members`.
-fn rival_size(consistency: &Graph, members: &[usize], core_fraction: f64) -> usize {
+fn rival_size(
+    consistency: &Graph,
+    members: &[usize],
+    refuted: &BTreeSet<usize>,
+    core_fraction: f64,
+) -> usize {
     let outside: Vec<usize> = (0..consistency.len())
-        .filter(|v| !members.contains(v))
+        .filter(|v| !members.contains(v) && !refuted.contains(v))
         .filter(|&v| {
             let agreeing = members
                 .iter()
@@ -248,13 +257,7 @@ fn rival_size(consistency: &Graph, members: &[usize], core_fraction: f64) -> usi
     if outside.len() < 2 {
         return outside.len().min(1);
     }
-    let mut induced = Graph::new(outside.len());
-    for (i, &a) in outside.iter().enumerate() {
-        for (j, &b) in outside.iter().enumerate().skip(i + 1) {
-            if consistency.neighbours(a).contains(b) {
-                induced.add_edge(i, j);
-            }
-        }
-    }
-    consistent_core(&induced, core_fraction).len().max(1)
+    consistent_core(&induced(consistency, &outside), core_fraction)
+        .len()
+        .max(1)
 }

@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use skid_core::slots::GraphView;
 use skid_core::{LoopId, ParamError, RobotId};
 
-use crate::clique::{Graph, extend_greedily, heuristic_clique, max_clique, max_clique_within};
+use crate::clique::{Graph, extend_greedily, heuristic_clique, induced, max_clique, max_clique_within};
 use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::dense::consistent_core;
 use crate::earned::{GrantRule, Withheld, agrees_with_cycle, judge};
@@ -199,6 +199,9 @@ struct Group {
     exact: bool,
     /// Why the leading set (`clique`) of an inter-robot group is not granted; `None` when it is.
     withheld: Option<Withheld>,
+    /// Loops of frame hypotheses whose predictions failed ([`crate::predicted`]): left out of the
+    /// leading set and of its rivals from then on.
+    refuted: BTreeSet<usize>,
 }
 
 impl Group {
@@ -207,6 +210,45 @@ impl Group {
         match self.withheld {
             Some(_) => &[],
             None => &self.clique,
+        }
+    }
+
+    /// The leading set among the loops not refuted, and whether it is exact.
+    fn leading_without_refuted(&self, params: &PcmParams) -> (Vec<usize>, bool) {
+        let kept: Vec<usize> = (0..self.loops.len())
+            .filter(|k| !self.refuted.contains(k))
+            .collect();
+        let graph = induced(&self.graph, &kept);
+        let (local, exact) = if params.min_consistent_fraction < 1.0 {
+            (consistent_core(&graph, params.min_consistent_fraction), true)
+        } else {
+            match max_clique(&graph, params.clique_search_budget) {
+                Ok(found) => (found, true),
+                Err(_) => (heuristic_clique(&graph), false),
+            }
+        };
+        (local.into_iter().map(|i| kept[i]).collect(), exact)
+    }
+
+    /// Judges an inter-robot group's leading set; a set whose predictions fail is refuted for good and
+    /// the leading set of the loops left is judged in its place, so a wrong frame that outnumbers the
+    /// right one does not hold it back.
+    fn settle(&mut self, params: &PcmParams, graph: &dyn GraphView) {
+        let rule = params.grant_rule();
+        loop {
+            self.withheld = judge(
+                &rule,
+                &self.loops,
+                &self.graph,
+                &self.clique,
+                &self.refuted,
+                graph,
+            );
+            if self.clique.is_empty() || !matches!(self.withheld, Some(Withheld::Unconfirmed { .. })) {
+                return;
+            }
+            self.refuted.extend(self.clique.iter().copied());
+            (self.clique, self.exact) = self.leading_without_refuted(params);
         }
     }
 }
@@ -255,14 +297,13 @@ impl Pcm {
     /// Re-judges every decided inter-robot group's leading set against the graph as it is now (new
     /// frames through third robots, say): returns the loops granted and withdrawn.
     pub fn reconsider(&mut self, graph: &dyn GraphView) -> (Vec<LoopId>, Vec<LoopId>) {
-        let rule = self.params.grant_rule();
         let (mut accepted, mut retracted) = (Vec::new(), Vec::new());
         for (&(a, b), group) in &mut self.groups {
             if a == b || !group.decided {
                 continue;
             }
             let before: BTreeSet<usize> = group.granted().iter().copied().collect();
-            group.withheld = judge(&rule, &group.loops, &group.graph, &group.clique, graph);
+            group.settle(&self.params, graph);
             let after: BTreeSet<usize> = group.granted().iter().copied().collect();
             accepted.extend(after.difference(&before).map(|&k| group.loops[k].id));
             retracted.extend(before.difference(&after).map(|&k| group.loops[k].id));
@@ -318,7 +359,10 @@ impl Pcm {
             });
         }
         let budget = self.params.clique_search_budget;
-        if self.params.min_consistent_fraction < 1.0 {
+        if !group.refuted.is_empty() {
+            (group.clique, group.exact) = group.leading_without_refuted(&self.params);
+            group.decided = true;
+        } else if self.params.min_consistent_fraction < 1.0 {
             group.clique = consistent_core(&group.graph, self.params.min_consistent_fraction);
             group.decided = true;
             group.exact = true;
@@ -370,16 +414,10 @@ impl Pcm {
             }
             group.decided = true;
         }
-        group.withheld = match intra {
-            true => None,
-            false => judge(
-                &self.params.grant_rule(),
-                &group.loops,
-                &group.graph,
-                &group.clique,
-                graph,
-            ),
-        };
+        match intra {
+            true => group.withheld = None,
+            false => group.settle(&self.params, graph),
+        }
         let after: BTreeSet<usize> = group.granted().iter().copied().collect();
         Ok(PcmUpdate {
             withheld: group.withheld.as_ref().map(ToString::to_string),

@@ -464,9 +464,11 @@ fn the_incremental_clique_matches_a_full_solve() {
 }
 
 /// Two robots on straight streets: robot 0 along y = 0, robot 1 along y = `street_y_m` (0: the same
-/// street, robot 1 starting at robot 0's keyframe 20), keyframes every 2 m. The descriptor takes two
-/// keyframes for one place when they truly are within 3 m, and robot 1's first six keyframes for
-/// robot 0's keyframes 20–25: a look-alike stretch. Robot 1's keyframes up to `robot1_known` are known.
+/// street, robot 1 starting at robot 0's keyframe 20), keyframes every 2 m; on the other street robot 1
+/// turns after 60 m and comes down to robot 0's street at its keyframe 30 (robot 1's keyframe 40), then
+/// follows it. The descriptor takes two keyframes for one place when they truly are within 3 m, and
+/// robot 1's first six keyframes for robot 0's keyframes 20–25: a look-alike stretch. Robot 1's
+/// keyframes up to `robot1_known` are known.
 struct Streets {
     street_y_m: f64,
     robot1_known: u32,
@@ -478,13 +480,31 @@ impl Streets {
         let position = match id.robot.0 {
             0 => Vector3::new(2.0 * k, 0.0, 0.0),
             _ if self.street_y_m == 0.0 => Vector3::new(40.0 + 2.0 * k, 0.0, 0.0),
-            _ => Vector3::new(2.0 * k, self.street_y_m, 0.0),
+            _ if id.index <= 30 => Vector3::new(2.0 * k, self.street_y_m, 0.0),
+            _ if id.index <= 40 => Vector3::new(60.0, self.street_y_m * (40.0 - k) / 10.0, 0.0),
+            _ => Vector3::new(60.0 + 2.0 * (k - 40.0), 0.0, 0.0),
         };
         Pose::new(position, Vector3::zeros())
     }
 
     fn known(&self, id: KeyframeId) -> bool {
         id.robot.0 == 0 && id.index < 50 || id.robot.0 == 1 && id.index <= self.robot1_known
+    }
+
+    /// A loop measured as the truth has it, or as the look-alike stretch suggests (`as_one_place`).
+    fn closure(&self, id: u64, target: KeyframeId, source: KeyframeId, as_one_place: bool) -> PcmLoop {
+        let target_from_source = match as_one_place {
+            true => Pose::identity(),
+            false => self.truth(target).inverse() * self.truth(source),
+        };
+        let closure = LoopClosure {
+            id: LoopId(id),
+            target,
+            source,
+            target_from_source,
+            information: Information::identity() * 1e4,
+        };
+        PcmLoop::from_closure(&closure).unwrap()
     }
 }
 
@@ -516,36 +536,31 @@ impl GraphView for Streets {
 }
 
 /// Six loops joining robot 1's first keyframes to robot 0's keyframes 20–25 as one place, judged while
-/// robot 1 holds `robot1_known` keyframes, then again with 30.
-fn merge_then_drive_on(street_y_m: f64) -> (Vec<LoopId>, Vec<LoopId>) {
-    let mut pcm = Pcm::new(PcmParams::default()).unwrap();
+/// robot 1 holds six keyframes, then again with 31: the loops granted, then those withdrawn.
+fn merge_then_drive_on(pcm: &mut Pcm, graph: &mut Streets) -> (Vec<LoopId>, Vec<LoopId>) {
     let k = KeyframeId::new;
-    let mut graph = Streets {
-        street_y_m,
-        robot1_known: 5,
-    };
+    graph.robot1_known = 5;
     let mut granted = Vec::new();
     for index in 0..=5u32 {
-        let closure = LoopClosure {
-            id: LoopId(u64::from(index)),
-            target: k(0, 20 + index),
-            source: k(1, index),
-            target_from_source: Pose::identity(),
-            information: Information::identity() * 1e4,
-        };
-        let update = pcm.add(PcmLoop::from_closure(&closure).unwrap(), &graph).unwrap();
-        granted.extend(update.accepted);
+        let closure = graph.closure(u64::from(index), k(0, 20 + index), k(1, index), true);
+        granted.extend(pcm.add(closure, graph).unwrap().accepted);
     }
     graph.robot1_known = 30;
-    let (_, withdrawn) = pcm.reconsider(&graph);
+    let (_, withdrawn) = pcm.reconsider(graph);
     (granted, withdrawn)
 }
 
 #[test]
 fn a_merge_whose_frame_predicts_places_that_do_not_look_alike_is_withdrawn() {
+    let k = KeyframeId::new;
     // Robot 1 drives a parallel street 50 m away whose first 10 m look like robot 0's street: the six
     // loops agree, are spread and unrivalled, and nothing beyond them is predicted yet: granted.
-    let (granted, withdrawn) = merge_then_drive_on(50.0);
+    let mut pcm = Pcm::new(PcmParams::default()).unwrap();
+    let mut graph = Streets {
+        street_y_m: 50.0,
+        robot1_known: 5,
+    };
+    let (granted, withdrawn) = merge_then_drive_on(&mut pcm, &mut graph);
     assert_eq!(
         granted.len(),
         6,
@@ -554,7 +569,25 @@ fn a_merge_whose_frame_predicts_places_that_do_not_look_alike_is_withdrawn() {
     // Robot 1 drives on: the frame lays its next 50 m along robot 0's street, where the descriptors
     // disagree. The merge is withdrawn.
     assert_eq!(withdrawn.len(), 6, "withdrawn once its predictions fail");
+    // Robot 1 comes down to robot 0's street and closes four true loops: fewer than the wrong six, but
+    // those are refuted and contest nothing. The true frame is granted.
+    graph.robot1_known = 43;
+    let mut accepted = Vec::new();
+    for m in 0..4u32 {
+        let closure = graph.closure(u64::from(10 + m), k(0, 30 + m), k(1, 40 + m), false);
+        accepted.extend(pcm.add(closure, &graph).unwrap().accepted);
+    }
+    assert_eq!(
+        accepted,
+        (10..14).map(LoopId).collect::<Vec<_>>(),
+        "the true frame is granted"
+    );
     // On the same street the predictions hold and the merge stays.
-    let (granted, withdrawn) = merge_then_drive_on(0.0);
+    let mut pcm = Pcm::new(PcmParams::default()).unwrap();
+    let mut graph = Streets {
+        street_y_m: 0.0,
+        robot1_known: 5,
+    };
+    let (granted, withdrawn) = merge_then_drive_on(&mut pcm, &mut graph);
     assert_eq!((granted.len(), withdrawn.len()), (6, 0));
 }
