@@ -8,8 +8,9 @@
 //!
 //! The frame is judged where the robots met (`skid_eval::meeting_frame_error`: the relative poses
 //! between the two robots' poses that were within 10 m of each other, in the merged map against the
-//! truth), which is what a merge decides and carries no drift from elsewhere on the routes. Robots that
-//! never met are judged by `T_β,APE`, or at the robots' first poses where a straight route leaves
+//! truth), which is what a merge decides and carries no drift from elsewhere on the routes; a robot
+//! that never met α but joined through others is judged where it met them
+//! (`skid_eval::meeting_with_fleet`). Robots that met none are judged by `T_β,APE`, or at the robots' first poses where a straight route leaves
 //! `T_β,APE`'s rotation undefined (`skid_eval::anchored_frame_error`); both are reported beside, and
 //! both carry the odometry's drift.
 //!
@@ -163,8 +164,17 @@ pub fn run_one(
             // error where a straight route leaves T_β,APE's rotation arbitrary.
             let (error, judged_by) = match beta.alignment.as_ref() {
                 None => (None, "none"),
-                Some(a) => match (&a.meeting_frame_error, straight_route) {
-                    (Some(meeting), _) => (Some((meeting.translation_m, meeting.rotation_deg)), "meeting"),
+                Some(a) => match (
+                    a.meeting_frame_error.or(a.fleet_meeting_frame_error),
+                    straight_route,
+                ) {
+                    (Some(meeting), _) if a.meeting_frame_error.is_some() => {
+                        (Some((meeting.translation_m, meeting.rotation_deg)), "meeting")
+                    }
+                    (Some(meeting), _) => (
+                        Some((meeting.translation_m, meeting.rotation_deg)),
+                        "meeting with the fleet",
+                    ),
                     (None, true) => (
                         Some((
                             a.anchored_frame_error.translation_m,

@@ -8,7 +8,8 @@
 //!   definitions (Grupp, "evo: Python package for the evaluation of odometry and SLAM", 2017), which
 //!   the paper used; [`associate_by_time`] / [`associate_by_index`] pair the poses first.
 //! - [`alpha_beta`]: the paper's multi-robot alignment metric `T_β,APE = (T^GT_β)⁻¹ T^GT_α T^α_β`.
-//! - [`meeting_frame_error`]: a merge's error where the robots met, free of the odometry's drift.
+//! - [`meeting_frame_error`]: a merge's error where the robots met, free of the odometry's drift;
+//!   [`meeting_with_fleet`]: the same where a robot met any robot already placed.
 //! - [`alignment_conditioning`]: whether an SE(3) alignment's rotation is observable (not on a straight path).
 //! - [`drift`]: KITTI-style segment drift (%, deg/100 m) and end-point drift.
 //! - [`descriptor_memory`] and [`latency_vs_distance`]: the communication and memory figures.
@@ -42,7 +43,7 @@ pub use comms::{
 pub use conditioning::{AlignmentConditioning, MIN_EIGENVALUE_RATIO, alignment_conditioning};
 pub use drift::{DriftOptions, DriftResult, SegmentDrift, drift};
 pub use error::EvalError;
-pub use meeting::{MEETING_RADIUS_M, MeetingError, meeting_frame_error};
+pub use meeting::{MEETING_RADIUS_M, MeetingError, meeting_frame_error, meeting_with_fleet};
 pub use pr::{PrCurve, PrPoint, ScoredCandidate, pr_curve};
 pub use registration::{
     RegistrationError, RegistrationPair, RegistrationStats, RegistrationThresholds, registration_error,

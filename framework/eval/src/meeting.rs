@@ -38,7 +38,21 @@ pub struct MeetingError {
 /// `alpha_from_beta` maps β's map frame into α's. `None` when no pose of β came within `radius_m` of
 /// one of α (the robots never met; judge the merge another way).
 pub fn meeting_frame_error(
-    (gt_alpha, est_alpha): (&[Pose], &[Pose]),
+    alpha: (&[Pose], &[Pose]),
+    beta: (&[Pose], &[Pose]),
+    alpha_from_beta: &Pose,
+    radius_m: f64,
+) -> Option<MeetingError> {
+    meeting_with_fleet(&[alpha], beta, alpha_from_beta, radius_m)
+}
+
+/// β's placement in α's frame judged where β met any robot already placed there: `placed` holds each
+/// such robot's (ground truth, estimate) poses with the estimates **in α's frame** (α itself among
+/// them, or robots placed through others); each pose of β is paired with the nearest pose of any of
+/// them within `radius_m` in truth. A robot that joined α's frame through others and never met α is
+/// judged where it met them, still free of the routes' drift. `None` when β met none of them.
+pub fn meeting_with_fleet(
+    placed: &[(&[Pose], &[Pose])],
     (gt_beta, est_beta): (&[Pose], &[Pose]),
     alpha_from_beta: &Pose,
     radius_m: f64,
@@ -46,9 +60,9 @@ pub fn meeting_frame_error(
     let radius_sq = radius_m * radius_m;
     let (mut translations, mut rotations) = (Vec::new(), Vec::new());
     for (gt_b, est_b) in gt_beta.iter().zip(est_beta) {
-        let nearest = gt_alpha
+        let nearest = placed
             .iter()
-            .zip(est_alpha)
+            .flat_map(|(gt, est)| gt.iter().zip(est.iter()))
             .map(|(gt_a, est_a)| {
                 let distance_sq = (gt_a.translation.vector - gt_b.translation.vector).norm_squared();
                 (distance_sq, gt_a, est_a)
@@ -123,6 +137,23 @@ mod tests {
         let error = meeting_frame_error((&gt_a, &est_a), (&gt_b, &est_b), &alpha_from_beta, 10.0).unwrap();
         assert!((error.translation_m - 40.0).abs() < 1e-6, "{error:?}");
         assert!(error.rotation_deg < 1e-6);
+    }
+
+    #[test]
+    fn a_robot_is_judged_where_it_met_any_robot_already_placed() {
+        let ((gt_a, est_a), (gt_b, est_b)) = meeting(0.0);
+        // A third robot γ drives α's route 500 m north, never meeting α; β drives γ's route back. γ is
+        // placed in α's frame 500 m north (its estimates given in α's frame), β 3 m off γ's route.
+        let north = pose(0.0, 500.0, 0.0);
+        let gt_c: Vec<Pose> = gt_a.iter().map(|p| north * p).collect();
+        let est_c_in_alpha: Vec<Pose> = est_a.iter().map(|p| north * p).collect();
+        let gt_b: Vec<Pose> = gt_b.iter().map(|p| north * p).collect();
+        let alpha_from_beta = pose(3.0, 0.0, 0.0) * gt_a[0].inverse() * gt_b[0];
+        assert!(meeting_frame_error((&gt_a, &est_a), (&gt_b, &est_b), &alpha_from_beta, 10.0).is_none());
+        let placed = [(&gt_a[..], &est_a[..]), (&gt_c[..], &est_c_in_alpha[..])];
+        let error = meeting_with_fleet(&placed, (&gt_b, &est_b), &alpha_from_beta, 10.0).unwrap();
+        assert_eq!(error.pairs, 100);
+        assert!((error.translation_m - 3.0).abs() < 1e-6, "{error:?}");
     }
 
     #[test]

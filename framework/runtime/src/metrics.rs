@@ -18,7 +18,7 @@ use skid_core::{KeyframeId, Pose};
 use skid_eval::{
     AlignmentConditioning, AlignmentKind, AlphaBetaInput, ErrorStats, MEETING_RADIUS_M, MeetingError,
     RpeOptions, TransformError, alignment_conditioning, alpha_beta, anchored_frame_error, ape,
-    meeting_frame_error, rpe, umeyama,
+    meeting_frame_error, meeting_with_fleet, rpe, umeyama,
 };
 
 use crate::host::{LoopStats, RobotHost};
@@ -61,6 +61,9 @@ pub struct AlignmentMetrics {
     /// of the relative poses between them in the merged map, free of the drift the two measures above
     /// carry; absent when the robots never met. The aliasing benchmark judges merges by it.
     pub meeting_frame_error: Option<MeetingError>,
+    /// The same where β met any robot placed in α's frame (α or others, each through its own frame):
+    /// for robots that joined through others and never met α.
+    pub fleet_meeting_frame_error: Option<MeetingError>,
     /// The translation of `T_β,APE` as a percentage of β's path length.
     pub beta_alignment_percent_of_path: f64,
     /// β's trajectory placed through α's alignment, against β's ground truth: metres and degrees.
@@ -215,10 +218,12 @@ fn alpha_from_beta_through_others(alpha: &RobotHost, beta: &RobotHost) -> Option
 }
 
 fn alignment_metrics(
-    alpha: &RobotHost,
+    robots: &[RobotHost],
+    frames: &[Result<(Pose, usize), String>],
     beta: &RobotHost,
     frame: &Result<(Pose, usize), String>,
 ) -> Result<AlignmentMetrics, String> {
+    let alpha = robots.first().ok_or("no robot α")?;
     let (alpha_from_beta, shared_keyframes) = frame.clone()?;
     let (gt_alpha, est_alpha) = associated(alpha);
     let (gt_beta, est_beta) = associated(beta);
@@ -250,6 +255,20 @@ fn alignment_metrics(
         &alpha_from_beta,
         MEETING_RADIUS_M,
     );
+    // Every other robot placed in α's frame, its estimates moved into that frame.
+    let placed: Vec<(Vec<Pose>, Vec<Pose>)> = robots
+        .iter()
+        .zip(frames)
+        .filter(|(other, _)| other.robot() != beta.robot())
+        .filter_map(|(other, frame)| {
+            let (alpha_from_other, _) = frame.as_ref().ok()?;
+            let (gt, est) = associated(other);
+            Some((gt, est.iter().map(|pose| alpha_from_other * pose).collect()))
+        })
+        .collect();
+    let placed: Vec<(&[Pose], &[Pose])> = placed.iter().map(|(gt, est)| (&gt[..], &est[..])).collect();
+    let fleet_meeting_frame_error =
+        meeting_with_fleet(&placed, (&gt_beta, &est_beta), &alpha_from_beta, MEETING_RADIUS_M);
     let beta_path_m = path_length_m(&gt_beta).max(f64::MIN_POSITIVE);
     let joined_via = (shared_keyframes == 0)
         .then(|| {
@@ -274,6 +293,7 @@ fn alignment_metrics(
         beta_alignment_error: result.beta_alignment_error,
         anchored_frame_error,
         meeting_frame_error,
+        fleet_meeting_frame_error,
         beta_in_alpha_ate_m: result.beta_in_alpha.translation_m,
         beta_in_alpha_are_deg: result.beta_in_alpha.rotation_deg,
     })
@@ -281,6 +301,7 @@ fn alignment_metrics(
 
 fn robot_metrics(
     robots: &[RobotHost],
+    frames: &[Result<(Pose, usize), String>],
     host: &RobotHost,
     frame: &Result<(Pose, usize), String>,
 ) -> RobotMetrics {
@@ -293,10 +314,12 @@ fn robot_metrics(
         None
     };
     let (alignment, alignment_unavailable) = match robots.first() {
-        Some(alpha) if alpha.robot() != host.robot() => match alignment_metrics(alpha, host, frame) {
-            Ok(metrics) => (Some(metrics), None),
-            Err(reason) => (None, Some(reason)),
-        },
+        Some(alpha) if alpha.robot() != host.robot() => {
+            match alignment_metrics(robots, frames, host, frame) {
+                Ok(metrics) => (Some(metrics), None),
+                Err(reason) => (None, Some(reason)),
+            }
+        }
         _ => (None, None),
     };
     let counters = host.protocol().counters().snapshot();
@@ -329,7 +352,7 @@ impl RunMetrics {
         let robots_metrics: Vec<RobotMetrics> = robots
             .iter()
             .zip(frames)
-            .map(|(host, frame)| robot_metrics(robots, host, frame))
+            .map(|(host, frame)| robot_metrics(robots, frames, host, frame))
             .collect();
         let cloud_bytes: u64 = robots_metrics
             .iter()
