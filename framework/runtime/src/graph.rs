@@ -52,14 +52,8 @@ impl GraphView for HostGraph<'_> {
         self.through_others.map_or_else(Vec::new, |through| through(a, b))
     }
 
-    fn place_distance(&self, a: KeyframeId, b: KeyframeId) -> Option<f64> {
+    fn looks_alike(&self, a: KeyframeId, b: KeyframeId) -> Option<bool> {
         let (index, limit) = self.descriptors?;
-        let distance = index.distance_between(a, b)?;
-        // An unbounded limit (a descriptor without a threshold) makes every pair one place.
-        Some(if limit.is_finite() && limit > 0.0 {
-            distance / limit
-        } else {
-            0.0
-        })
+        index.distance_between(a, b).map(|distance| distance <= limit)
     }
 }

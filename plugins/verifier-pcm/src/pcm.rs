@@ -215,18 +215,13 @@ impl Group {
 
     /// The leading set among the loops not refuted, and whether it is exact.
     fn leading_without_refuted(&self, params: &PcmParams) -> (Vec<usize>, bool) {
+        if self.refuted.is_empty() {
+            return leading_set(&self.graph, params);
+        }
         let kept: Vec<usize> = (0..self.loops.len())
             .filter(|k| !self.refuted.contains(k))
             .collect();
-        let graph = induced(&self.graph, &kept);
-        let (local, exact) = if params.min_consistent_fraction < 1.0 {
-            (consistent_core(&graph, params.min_consistent_fraction), true)
-        } else {
-            match max_clique(&graph, params.clique_search_budget) {
-                Ok(found) => (found, true),
-                Err(_) => (heuristic_clique(&graph), false),
-            }
-        };
+        let (local, exact) = leading_set(&induced(&self.graph, &kept), params);
         (local.into_iter().map(|i| kept[i]).collect(), exact)
     }
 
@@ -250,6 +245,19 @@ impl Group {
             self.refuted.extend(self.clique.iter().copied());
             (self.clique, self.exact) = self.leading_without_refuted(params);
         }
+    }
+}
+
+/// The leading set of a whole consistency graph, solved from scratch: the consistent core below a
+/// `min_consistent_fraction` of 1, else the maximum clique (the heuristic's past the search budget, then
+/// not exact).
+fn leading_set(graph: &Graph, params: &PcmParams) -> (Vec<usize>, bool) {
+    if params.min_consistent_fraction < 1.0 {
+        return (consistent_core(graph, params.min_consistent_fraction), true);
+    }
+    match max_clique(graph, params.clique_search_budget) {
+        Ok(found) => (found, true),
+        Err(_) => (heuristic_clique(graph), false),
     }
 }
 
@@ -359,14 +367,12 @@ impl Pcm {
             });
         }
         let budget = self.params.clique_search_budget;
-        if !group.refuted.is_empty() {
+        let incremental =
+            group.decided && group.refuted.is_empty() && self.params.min_consistent_fraction >= 1.0;
+        if !incremental {
             (group.clique, group.exact) = group.leading_without_refuted(&self.params);
             group.decided = true;
-        } else if self.params.min_consistent_fraction < 1.0 {
-            group.clique = consistent_core(&group.graph, self.params.min_consistent_fraction);
-            group.decided = true;
-            group.exact = true;
-        } else if group.decided {
+        } else {
             // Adding `v` raises the maximum clique size by at most one, so a clique of the current size
             // plus one that contains `v` is a maximum clique.
             let target = group.clique.len() + 1;
@@ -401,18 +407,6 @@ impl Pcm {
                     Err(_) => group.exact = false,
                 }
             }
-        } else {
-            match max_clique(&group.graph, budget) {
-                Ok(found) => {
-                    group.clique = found;
-                    group.exact = true;
-                }
-                Err(_) => {
-                    group.clique = heuristic_clique(&group.graph);
-                    group.exact = false;
-                }
-            }
-            group.decided = true;
         }
         match intra {
             true => group.withheld = None,

@@ -75,18 +75,17 @@ fn start(robot: RobotId) -> KeyframeId {
 /// The placement nearest all the others (the smallest sum of translation distances): one frame that
 /// stands for the set without being pulled by its noisiest loop.
 fn medoid(frames: &[Pose]) -> Option<Pose> {
+    let cost = |p: &Pose| -> f64 {
+        frames
+            .iter()
+            .map(|q| (p.translation.vector - q.translation.vector).norm())
+            .sum()
+    };
     frames
         .iter()
-        .min_by(|x, y| {
-            let cost = |p: &Pose| -> f64 {
-                frames
-                    .iter()
-                    .map(|q| (p.translation.vector - q.translation.vector).norm())
-                    .sum()
-            };
-            cost(x).total_cmp(&cost(y))
-        })
-        .copied()
+        .map(|frame| (cost(frame), frame))
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .map(|(_, frame)| *frame)
 }
 
 /// The keyframes of `robot` with their positions in its first keyframe's frame, by odometry.
@@ -115,6 +114,9 @@ pub(crate) fn predicted_overlaps(
     let Some(first) = members.first().and_then(|&k| loops.get(k)) else {
         return predicted;
     };
+    if rule.radius_m <= 0.0 {
+        return predicted;
+    }
     let (a, b) = (first.target.robot, first.source.robot);
     let frames: Vec<Pose> = placements(loops, members, graph)
         .into_iter()

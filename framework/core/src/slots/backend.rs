@@ -82,19 +82,13 @@ pub trait GraphView {
         None
     }
 
-    /// The descriptor distance between two keyframes (of any robots) in units of a loop candidate's
-    /// largest: at most 1 when the place recognition takes them for one place. `None` when either
-    /// descriptor is not held or the descriptor cannot compare stored keyframes (the default).
-    fn place_distance(&self, a: KeyframeId, b: KeyframeId) -> Option<f64> {
+    /// Whether the place recognition takes two keyframes (of any robots) for one place: their
+    /// descriptors are as close as a loop candidate's must be. `None` when either descriptor is not
+    /// held or the descriptor cannot compare stored keyframes (the default). A verifier checks what a
+    /// frame hypothesis predicts with it: keyframes the hypothesis puts in one place should look alike.
+    fn looks_alike(&self, a: KeyframeId, b: KeyframeId) -> Option<bool> {
         let _ = (a, b);
         None
-    }
-
-    /// Whether the place recognition takes two keyframes for one place ([`GraphView::place_distance`]
-    /// at most 1). A verifier checks what a frame hypothesis predicts with it: keyframes the hypothesis
-    /// puts in one place should look alike.
-    fn looks_alike(&self, a: KeyframeId, b: KeyframeId) -> Option<bool> {
-        self.place_distance(a, b).map(|distance| distance <= 1.0)
     }
 
     /// Where robot `b`'s first keyframe sits in the frame of robot `a`'s first keyframe, as robots other
