@@ -10,9 +10,9 @@
 //! between the two robots' poses that were within 10 m of each other, in the merged map against the
 //! truth), which is what a merge decides and carries no drift from elsewhere on the routes; a robot
 //! that never met α but joined through others is judged where it met them
-//! (`skid_eval::meeting_with_fleet`). Robots that met none are judged by `T_β,APE`, or at the robots' first poses where a straight route leaves
-//! `T_β,APE`'s rotation undefined (`skid_eval::anchored_frame_error`); both are reported beside, and
-//! both carry the odometry's drift.
+//! (`skid_eval::meeting_with_fleet`). Robots that met none are judged by `T_β,APE`, or at the robots'
+//! first poses where a straight route leaves `T_β,APE`'s rotation undefined
+//! (`skid_eval::anchored_frame_error`); both are reported beside, and both carry the odometry's drift.
 //!
 //! Every run is the real runtime (`skid_runtime::Fleet` in lockstep) built from `configs/default.toml`,
 //! the variant's overrides and the bench's; the frame error is the runtime's own α/β metric
@@ -160,29 +160,25 @@ pub fn run_one(
         .map(|(beta_robot, beta)| {
             let straight_route = alpha_straight || straight(beta);
             let ape = beta.alignment.as_ref().map(|a| &a.beta_alignment_error);
-            // Where the robots met when they did; otherwise the paper's metric, or the anchored frame
-            // error where a straight route leaves T_β,APE's rotation arbitrary.
+            // Where the robots met when they did, else where β met the robots placed before it;
+            // otherwise the paper's metric, or the anchored frame error where a straight route leaves
+            // T_β,APE's rotation arbitrary.
             let (error, judged_by) = match beta.alignment.as_ref() {
                 None => (None, "none"),
-                Some(a) => match (
-                    a.meeting_frame_error.or(a.fleet_meeting_frame_error),
-                    straight_route,
-                ) {
-                    (Some(meeting), _) if a.meeting_frame_error.is_some() => {
-                        (Some((meeting.translation_m, meeting.rotation_deg)), "meeting")
-                    }
-                    (Some(meeting), _) => (
-                        Some((meeting.translation_m, meeting.rotation_deg)),
+                Some(a) => match (a.meeting_frame_error, a.fleet_meeting_frame_error, straight_route) {
+                    (Some(met), _, _) => (Some((met.translation_m, met.rotation_deg)), "meeting"),
+                    (None, Some(met), _) => (
+                        Some((met.translation_m, met.rotation_deg)),
                         "meeting with the fleet",
                     ),
-                    (None, true) => (
+                    (None, None, true) => (
                         Some((
                             a.anchored_frame_error.translation_m,
                             a.anchored_frame_error.rotation_deg,
                         )),
                         "anchored",
                     ),
-                    (None, false) => (
+                    (None, None, false) => (
                         Some((
                             a.beta_alignment_error.translation_m,
                             a.beta_alignment_error.rotation_deg,

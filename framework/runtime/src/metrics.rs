@@ -217,22 +217,47 @@ fn alpha_from_beta_through_others(alpha: &RobotHost, beta: &RobotHost) -> Option
     Some(alpha_first * joined.own_first_from_robot_first * beta_first.inverse())
 }
 
-fn alignment_metrics(
-    robots: &[RobotHost],
-    frames: &[Result<(Pose, usize), String>],
-    beta: &RobotHost,
-    frame: &Result<(Pose, usize), String>,
-) -> Result<AlignmentMetrics, String> {
-    let alpha = robots.first().ok_or("no robot α")?;
-    let (alpha_from_beta, shared_keyframes) = frame.clone()?;
-    let (gt_alpha, est_alpha) = associated(alpha);
-    let (gt_beta, est_beta) = associated(beta);
+/// What every robot's metrics read, computed once per run: the hosts, their frames in α's
+/// ([`alpha_frames`]), their (ground truth, estimate) poses, and the estimates moved into α's frame
+/// where α placed the robot.
+struct Fleet<'a> {
+    robots: &'a [RobotHost],
+    frames: &'a [Result<(Pose, usize), String>],
+    tracks: Vec<(Vec<Pose>, Vec<Pose>)>,
+    in_alpha: Vec<Option<Vec<Pose>>>,
+}
+
+impl<'a> Fleet<'a> {
+    fn new(robots: &'a [RobotHost], frames: &'a [Result<(Pose, usize), String>]) -> Self {
+        let tracks: Vec<(Vec<Pose>, Vec<Pose>)> = robots.iter().map(associated).collect();
+        let in_alpha = tracks
+            .iter()
+            .zip(frames)
+            .map(|((_, estimate), frame)| {
+                let (alpha_from_robot, _) = frame.as_ref().ok()?;
+                Some(estimate.iter().map(|pose| alpha_from_robot * pose).collect())
+            })
+            .collect();
+        Self {
+            robots,
+            frames,
+            tracks,
+            in_alpha,
+        }
+    }
+}
+
+fn alignment_metrics(fleet: &Fleet<'_>, beta_index: usize) -> Result<AlignmentMetrics, String> {
+    let (alpha, beta) = (&fleet.robots[0], &fleet.robots[beta_index]);
+    let (alpha_from_beta, shared_keyframes) = fleet.frames[beta_index].clone()?;
+    let (gt_alpha, est_alpha) = &fleet.tracks[0];
+    let (gt_beta, est_beta) = &fleet.tracks[beta_index];
     let result = alpha_beta(
         &AlphaBetaInput {
-            gt_alpha: &gt_alpha,
-            est_alpha: &est_alpha,
-            gt_beta: &gt_beta,
-            est_beta: &est_beta,
+            gt_alpha,
+            est_alpha,
+            gt_beta,
+            est_beta,
             alpha_from_beta,
         },
         AlignmentKind::Se3,
@@ -250,26 +275,23 @@ fn alignment_metrics(
         _ => return Err("no pose with ground truth to anchor the frames".to_owned()),
     };
     let meeting_frame_error = meeting_frame_error(
-        (&gt_alpha, &est_alpha),
-        (&gt_beta, &est_beta),
+        (gt_alpha, est_alpha),
+        (gt_beta, est_beta),
         &alpha_from_beta,
         MEETING_RADIUS_M,
     );
-    // Every other robot placed in α's frame, its estimates moved into that frame.
-    let placed: Vec<(Vec<Pose>, Vec<Pose>)> = robots
+    // Every other robot placed in α's frame, with its estimates in that frame.
+    let placed: Vec<(&[Pose], &[Pose])> = fleet
+        .tracks
         .iter()
-        .zip(frames)
-        .filter(|(other, _)| other.robot() != beta.robot())
-        .filter_map(|(other, frame)| {
-            let (alpha_from_other, _) = frame.as_ref().ok()?;
-            let (gt, est) = associated(other);
-            Some((gt, est.iter().map(|pose| alpha_from_other * pose).collect()))
-        })
+        .zip(&fleet.in_alpha)
+        .enumerate()
+        .filter(|&(index, _)| index != beta_index)
+        .filter_map(|(_, ((truth, _), in_alpha))| Some((&truth[..], &in_alpha.as_ref()?[..])))
         .collect();
-    let placed: Vec<(&[Pose], &[Pose])> = placed.iter().map(|(gt, est)| (&gt[..], &est[..])).collect();
     let fleet_meeting_frame_error =
-        meeting_with_fleet(&placed, (&gt_beta, &est_beta), &alpha_from_beta, MEETING_RADIUS_M);
-    let beta_path_m = path_length_m(&gt_beta).max(f64::MIN_POSITIVE);
+        meeting_with_fleet(&placed, (gt_beta, est_beta), &alpha_from_beta, MEETING_RADIUS_M);
+    let beta_path_m = path_length_m(gt_beta).max(f64::MIN_POSITIVE);
     let joined_via = (shared_keyframes == 0)
         .then(|| {
             alpha
@@ -299,28 +321,22 @@ fn alignment_metrics(
     })
 }
 
-fn robot_metrics(
-    robots: &[RobotHost],
-    frames: &[Result<(Pose, usize), String>],
-    host: &RobotHost,
-    frame: &Result<(Pose, usize), String>,
-) -> RobotMetrics {
-    let (truth, estimate) = associated(host);
+fn robot_metrics(fleet: &Fleet<'_>, index: usize) -> RobotMetrics {
+    let host = &fleet.robots[index];
+    let (truth, estimate) = &fleet.tracks[index];
     let trajectory = if truth.len() >= 3 {
-        trajectory_metrics(&truth, &estimate)
+        trajectory_metrics(truth, estimate)
             .map_err(|reason| tracing::warn!(robot = %host.robot(), %reason, "no ATE"))
             .ok()
     } else {
         None
     };
-    let (alignment, alignment_unavailable) = match robots.first() {
-        Some(alpha) if alpha.robot() != host.robot() => {
-            match alignment_metrics(robots, frames, host, frame) {
-                Ok(metrics) => (Some(metrics), None),
-                Err(reason) => (None, Some(reason)),
-            }
-        }
-        _ => (None, None),
+    let (alignment, alignment_unavailable) = match index {
+        0 => (None, None),
+        _ => match alignment_metrics(fleet, index) {
+            Ok(metrics) => (Some(metrics), None),
+            Err(reason) => (None, Some(reason)),
+        },
     };
     let counters = host.protocol().counters().snapshot();
     let bytes_sent_by_kind: BTreeMap<String, u64> = counters
@@ -349,10 +365,9 @@ impl RunMetrics {
 
     /// [`RunMetrics::of`] with the frames of [`alpha_frames`] already computed.
     pub fn with_frames(name: &str, robots: &[RobotHost], frames: &[Result<(Pose, usize), String>]) -> Self {
-        let robots_metrics: Vec<RobotMetrics> = robots
-            .iter()
-            .zip(frames)
-            .map(|(host, frame)| robot_metrics(robots, frames, host, frame))
+        let fleet = Fleet::new(robots, frames);
+        let robots_metrics: Vec<RobotMetrics> = (0..robots.len().min(frames.len()))
+            .map(|index| robot_metrics(&fleet, index))
             .collect();
         let cloud_bytes: u64 = robots_metrics
             .iter()

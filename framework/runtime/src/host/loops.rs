@@ -4,7 +4,7 @@
 
 use nalgebra::{UnitQuaternion, Vector3};
 use skid_config::ResolvedConfig;
-use skid_core::slots::{CoarseAlignment, LoopCandidate, LoopClosure, Verdict};
+use skid_core::slots::{CoarseAlignment, LoopCandidate, LoopClosure, Verdict, Verifier};
 use skid_core::{KeyframeId, PluginError, Pose, Slot};
 
 use super::RobotHost;
@@ -119,16 +119,31 @@ impl RobotHost {
         config: &ResolvedConfig,
         submitted: LoopCandidate<'_>,
     ) -> Result<Verdict, RuntimeError> {
-        self.refresh_frames();
-        let limit = self.candidate_distance_limit(config);
-        let Some(verifier) = self.plugins.verifier.as_mut() else {
+        let asked = self.ask_verifier(config, |verifier, graph| {
+            let started = std::time::Instant::now();
+            (verifier.submit(&submitted, graph), started.elapsed())
+        });
+        let Some((verdict, took)) = asked else {
             return Ok(Verdict {
                 accepted: vec![submitted.closure.id],
                 ..Verdict::default()
             });
         };
-        let started = std::time::Instant::now();
+        self.add_stage_ms("verifier", took.as_secs_f64() * 1e3);
+        verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))
+    }
+
+    /// Runs `ask` on the verifier with the graph as this robot sees it now (its frames through third
+    /// robots refreshed first); `None` without a verifier.
+    pub(crate) fn ask_verifier<R>(
+        &mut self,
+        config: &ResolvedConfig,
+        ask: impl FnOnce(&mut dyn Verifier, &HostGraph<'_>) -> R,
+    ) -> Option<R> {
+        self.refresh_frames();
+        let limit = self.candidate_distance_limit(config);
         let me = self.robot;
+        let verifier = self.plugins.verifier.as_mut()?;
         let _span = tracing::debug_span!("verifier", robot = %me).entered();
         let book = &self.frames;
         let through = move |a, b| book.through_others(me, a, b);
@@ -140,9 +155,7 @@ impl RobotHost {
             through_others: Some(&through),
             descriptors: self.index.as_deref().map(|index| (index, limit)),
         };
-        let verdict = verifier.submit(&submitted, &graph);
-        self.add_stage_ms("verifier", started.elapsed().as_secs_f64() * 1e3);
-        verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))
+        Some(ask(verifier.as_mut(), &graph))
     }
 
     /// Applies a verdict: retracted loops leave the graph, accepted ones enter it, peers are told.

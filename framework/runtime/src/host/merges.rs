@@ -11,7 +11,6 @@ use skid_protocol::{FrameMsg, Frames, Message, PoseMsg};
 
 use super::RobotHost;
 use crate::error::RuntimeError;
-use crate::graph::HostGraph;
 
 impl RobotHost {
     /// Recomputes this robot's frames of its merged peers from the back-end: the pose of each peer's
@@ -101,24 +100,9 @@ impl RobotHost {
         config: &ResolvedConfig,
         outbox: &mut Vec<Message>,
     ) -> Result<(), RuntimeError> {
-        self.refresh_frames();
-        let limit = self.candidate_distance_limit(config);
-        let me = self.robot;
-        let book = &self.frames;
-        let through = move |a: RobotId, b: RobotId| book.through_others(me, a, b);
-        let graph = HostGraph {
-            chains: &self.chains,
-            backend: self.plugins.backend.as_ref().map(|backend| backend.graph()),
-            loops: self.loops.accepted(),
-            stamps: &self.keyframe_stamps,
-            through_others: Some(&through),
-            descriptors: self.index.as_deref().map(|index| (index, limit)),
-        };
-        let Some(verifier) = self.plugins.verifier.as_mut() else {
+        let Some(verdict) = self.ask_verifier(config, |verifier, graph| verifier.reconsider(graph)) else {
             return Ok(());
         };
-        let _span = tracing::debug_span!("verifier", robot = %me).entered();
-        let verdict = verifier.reconsider(&graph);
         let verdict = verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?;
         self.apply_verdict(config, verdict, outbox)
     }
