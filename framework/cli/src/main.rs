@@ -177,6 +177,9 @@ enum Command {
     /// Inspect ROS bags and MCAP files.
     #[command(subcommand)]
     Bag(BagCommand),
+    /// Inspect the sessions runs leave (`runs/<name>/session`).
+    #[command(subcommand)]
+    Session(SessionCommand),
     /// Fleet set-up for real networks.
     #[command(subcommand)]
     Fleet(FleetCommand),
@@ -209,6 +212,19 @@ enum BagCommand {
     /// Topics, message types, counts, rates, duration, and each point-cloud topic's field layout.
     Info {
         /// A ROS 1 `.bag`, a ROS 2 bag folder (`metadata.yaml` + `.mcap`/`.db3`) or an `.mcap` file.
+        path: PathBuf,
+        /// Print one JSON line instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+enum SessionCommand {
+    /// Robots, keyframes, points, path lengths, loops and placements of a session, its descriptor and
+    /// size on disk.
+    Info {
+        /// A session folder, or a run folder holding one.
         path: PathBuf,
         /// Print one JSON line instead of the table.
         #[arg(long)]
@@ -487,6 +503,7 @@ fn main() -> ExitCode {
             command: SimCommand::Preview { flags, out, size_px },
         } => commands::extra::sim_preview(&flags.args(), &out, size_px),
         Command::Bag(BagCommand::Info { path, json }) => commands::bag::info(&path, json),
+        Command::Session(SessionCommand::Info { path, json }) => commands::session::info(&path, json),
         Command::Fleet(FleetCommand::Certs {
             hosts,
             robots,

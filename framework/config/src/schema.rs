@@ -147,6 +147,9 @@ pub struct OutputSection {
     pub record: bool,
     /// Edge of the voxels the record's keyframe clouds are thinned with, metres (0 keeps every point).
     pub record_voxel_m: f64,
+    /// Write `session/`, the run as a session a later run can relocalise in, grow or merge with
+    /// (`skid-session`: every robot's keyframes, optimised poses, descriptors, clouds and pose graph).
+    pub session: bool,
     /// Publish each robot's odometry, `/tf`, optimised path, map and loops live as ROS 2 topics over
     /// zenoh, the way `rmw_zenoh` (Jazzy) does, so RViz2 on a ROS 2 machine sees the running fleet.
     pub ros2: bool,
@@ -168,6 +171,7 @@ impl Default for OutputSection {
         Self {
             record: true,
             record_voxel_m: 0.5,
+            session: true,
             ros2: false,
             ros2_connect: Vec::new(),
             ros2_listen: Vec::new(),

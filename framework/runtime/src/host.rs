@@ -12,8 +12,8 @@ use std::time::Instant;
 
 use skid_config::ResolvedConfig;
 use skid_core::slots::{
-    Backend, CoarseRegistration, Descriptor, DescriptorIndex, FineRegistration, GraphView, LoopClosure,
-    Odometry, PreparedCloud, Source, Transport, Verifier,
+    Backend, CoarseRegistration, Descriptor, DescriptorBuf, DescriptorIndex, FineRegistration, GraphView,
+    LoopClosure, Odometry, PreparedCloud, Source, Transport, Verifier,
 };
 use skid_core::{Cloud, Keyframe, KeyframeId, LoopId, PluginError, Pose, RobotId, Slot};
 use skid_geometry::OdometryChains;
@@ -158,6 +158,11 @@ impl RobotHost {
     /// This robot's keyframes by index.
     pub fn keyframes(&self) -> &BTreeMap<u32, Arc<Keyframe>> {
         self.own.keyframes()
+    }
+
+    /// The descriptors of its own keyframes, by keyframe index.
+    pub fn own_descriptors(&self) -> &BTreeMap<u32, DescriptorBuf> {
+        self.own.descriptors()
     }
 
     /// Scans read from the source, including those the odometry skipped.

@@ -29,6 +29,7 @@ mod peer_faults;
 mod process;
 mod run_folder;
 mod run_record;
+mod session_out;
 mod settings;
 mod single;
 mod stop;

@@ -1,7 +1,7 @@
 //! Writes a run's outputs under `<output_dir>/<name>/` (staged by the `run_folder` module): the effective configuration (`config.toml`),
 //! per-robot trajectories (TUM and KITTI; the optimised estimate and the ground truth) and pose graphs
-//! (g2o), the merged map (`map.ply`), the run record (`run.mcap`), `metrics.json`, `summary.json` and the
-//! PNG plots.
+//! (g2o), the merged map (`map.ply`), the run record (`run.mcap`), the session (`session/`),
+//! `metrics.json`, `summary.json` and the PNG plots.
 
 use std::path::{Path, PathBuf};
 
@@ -111,6 +111,9 @@ fn write_into(folder: &Path, fleet: &Fleet, summary: &RunSummary) -> Result<RunM
             seconds = started.elapsed().as_secs_f64(),
             "wrote the run record run.mcap"
         );
+    }
+    if fleet.config.output.session {
+        crate::session_out::write_session(&folder, fleet, &frames)?;
     }
     let metrics = RunMetrics::with_frames(&fleet.config.run.name, &fleet.robots, &fits);
     write_json(&folder.join("metrics.json"), &metrics)?;

@@ -8,6 +8,7 @@ pub mod plot;
 pub mod plugin_check;
 pub mod replay;
 pub mod robot;
+pub mod session;
 pub mod sim_bag;
 pub mod table;
 pub mod tools;

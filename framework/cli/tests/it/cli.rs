@@ -210,6 +210,7 @@ fn run_writes_trajectories_and_a_summary() {
     assert!(metrics["inter_robot_candidates"].as_u64().is_some(), "{metrics}");
     // Robot 1 is β: either its α/β alignment error or the reason it has none.
     assert!(robots[1]["alignment"].is_object() || robots[1]["alignment_unavailable"].is_string());
+    check_session(&folder);
     let g2o = std::fs::read_to_string(folder.join("robot0/pose_graph.g2o")).unwrap();
     assert!(g2o.lines().any(|l| l.starts_with("VERTEX_SE3:QUAT")), "{g2o}");
     // Every edge joins two vertices of the file.
@@ -225,6 +226,56 @@ fn run_writes_trajectories_and_a_summary() {
             "dangling edge: {edge}"
         );
     }
+}
+
+/// The run's session reads back: every keyframe described, its cloud as long as stated, and its pose
+/// the optimised trajectory's at its stamp.
+fn check_session(folder: &Path) {
+    let dir = folder.join("session");
+    let session = skid_session::read_session(&dir).unwrap();
+    assert_eq!(session.name, "e2e");
+    assert_eq!(session.descriptor.as_ref().unwrap().kind, "solid");
+    assert_eq!(session.robots.len(), 2);
+    for robot in &session.robots {
+        assert!(!robot.keyframes.is_empty());
+        let trajectory =
+            skid_io::trajectory::read_tum(folder.join(format!("robot{}/trajectory.tum", robot.robot)))
+                .unwrap();
+        for keyframe in &robot.keyframes {
+            assert_eq!(
+                keyframe.descriptor.as_ref().map(Vec::len),
+                Some(session.descriptor.as_ref().unwrap().length)
+            );
+            let points = skid_session::read_keyframe_cloud(&dir, robot, keyframe).unwrap();
+            assert!(points.len() > 1000, "{} points", points.len());
+            let stamp_s = keyframe.stamp_nanos as f64 * 1e-9;
+            let scan = trajectory
+                .iter()
+                .find(|pose| (pose.stamp_s - stamp_s).abs() < 1e-6)
+                .unwrap();
+            let offset =
+                scan.world_from_sensor.translation.vector - keyframe.map_from_sensor.translation.vector;
+            assert!(offset.norm() < 1e-3, "keyframe {}: {offset:?}", keyframe.index);
+        }
+    }
+    assert!(session.robots[0].map_from_robot.is_some());
+    let info = skid(&["session", "info", "--json", &folder.display().to_string()], &[]);
+    assert!(info.status.success(), "{}", text(&info.stderr));
+    let info: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(
+        info["robots"][1]["keyframes"].as_u64(),
+        Some(session.robots[1].keyframes.len() as u64)
+    );
+    let missing = skid(
+        &["session", "info", &folder.join("robot0").display().to_string()],
+        &[],
+    );
+    assert!(!missing.status.success());
+    assert!(
+        text(&missing.stderr).contains("not a session folder"),
+        "{}",
+        text(&missing.stderr)
+    );
 }
 
 fn skid_io_read_tum(path: &Path) -> usize {

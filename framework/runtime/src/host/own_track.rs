@@ -5,6 +5,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use skid_core::slots::DescriptorBuf;
 use skid_core::{Keyframe, Pose};
 
 use crate::warn_limit::WarnLimiter;
@@ -23,6 +24,8 @@ pub struct ScanRecord {
 #[derive(Debug, Default)]
 pub(crate) struct OwnTrack {
     keyframes: BTreeMap<u32, Arc<Keyframe>>,
+    /// The descriptor of each described keyframe, kept for the session the run leaves.
+    descriptors: BTreeMap<u32, DescriptorBuf>,
     scans: Vec<ScanRecord>,
     points_read: usize,
     /// Scans read from the source, including those the odometry skipped.
@@ -59,6 +62,15 @@ impl OwnTrack {
     /// Records one keyframe.
     pub(crate) fn push_keyframe(&mut self, keyframe: Arc<Keyframe>) {
         self.keyframes.insert(keyframe.id.index, keyframe);
+    }
+
+    /// Records the descriptor of keyframe `index`.
+    pub(crate) fn push_descriptor(&mut self, index: u32, descriptor: DescriptorBuf) {
+        self.descriptors.insert(index, descriptor);
+    }
+
+    pub(crate) fn descriptors(&self) -> &BTreeMap<u32, DescriptorBuf> {
+        &self.descriptors
     }
 
     pub(crate) fn keyframes(&self) -> &BTreeMap<u32, Arc<Keyframe>> {

@@ -198,6 +198,7 @@ impl RobotHost {
         outbox: &mut Vec<skid_protocol::Message>,
     ) -> Result<(), RuntimeError> {
         let id = keyframe.id;
+        self.own.push_descriptor(id.index, descriptor.clone());
         outbox.push(crate::messages::descriptor_message(
             self.robot,
             keyframe,
