@@ -18,4 +18,6 @@ mod schema;
 pub use error::ConfigError;
 pub use layers::{ConfigSources, DEFAULT_CONFIG_TOML, EMBEDDED_PROFILES, profile_names_in};
 pub use resolve::{ResolvedConfig, ResolvedSlot};
-pub use schema::{DeployMode, DeploySection, LoopsSection, NONE_PLUGIN, OutputSection, RunSection};
+pub use schema::{
+    DeployMode, DeploySection, LoopsSection, NONE_PLUGIN, OutputSection, PriorMode, PriorSection, RunSection,
+};

@@ -8,7 +8,7 @@ use figment::{Figment, Source};
 use skid_core::{Params, ParsedParams, Registry, Slot};
 
 use crate::schema::{AUTO_PLUGIN, MAX_ROBOTS, NONE_PLUGIN, RawConfig, RawSlot};
-use crate::{ConfigError, DeploySection, LoopsSection, OutputSection, RunSection};
+use crate::{ConfigError, DeploySection, LoopsSection, OutputSection, PriorSection, RunSection};
 
 /// One slot after validation: the selected plugin, its complete parameters (defaults filled in) and,
 /// unless the slot is empty, those parameters parsed and checked, from which every robot's instance is
@@ -56,6 +56,7 @@ pub struct ResolvedConfig {
     pub deploy: DeploySection,
     pub loops: LoopsSection,
     pub output: OutputSection,
+    pub prior: PriorSection,
     pub slots: BTreeMap<Slot, ResolvedSlot>,
 }
 
@@ -83,6 +84,9 @@ impl ResolvedConfig {
         }
         if let Ok(toml::Value::Table(output)) = toml::Value::try_from(&self.output) {
             root.insert("output".to_owned(), toml::Value::Table(output));
+        }
+        if let Ok(toml::Value::Table(prior)) = toml::Value::try_from(&self.prior) {
+            root.insert("prior".to_owned(), toml::Value::Table(prior));
         }
         for (slot, resolved) in &self.slots {
             let mut table = toml::Table::new();
@@ -152,6 +156,7 @@ pub(crate) fn resolve(
         .validate(raw.run.robots)
         .and_then(|()| raw.output.validate())
         .and_then(|()| raw.loops.validate())
+        .and_then(|()| raw.prior.validate())
         .map_err(|error| invalid(figment, error.key, error.message))?;
     let mut slots = BTreeMap::new();
     for slot in Slot::ALL {
@@ -173,6 +178,7 @@ pub(crate) fn resolve(
         deploy: raw.deploy,
         loops: raw.loops,
         output: raw.output,
+        prior: raw.prior,
         slots,
     })
 }

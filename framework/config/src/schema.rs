@@ -360,6 +360,44 @@ impl LoopsSection {
     }
 }
 
+/// What a run does with a prior session (`[prior] mode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PriorMode {
+    /// The prior is a map the robots place themselves in; it does not change.
+    #[default]
+    Localise,
+}
+
+/// `[prior]`: a session an earlier run left, that this run's robots localise in.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PriorSection {
+    /// The session folder (`runs/<name>/session`, or the run folder holding it); none when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathBuf>,
+    /// `localise`: every robot queries its keyframes against the prior's descriptors, registers and
+    /// verifies the candidates as inter-robot loops with a peer that does not move, and is placed in the
+    /// prior's map frame once the verifier grants a consistent set of them.
+    pub mode: PriorMode,
+}
+
+impl PriorSection {
+    /// Checks that a path, when given, names a folder.
+    pub fn validate(&self) -> Result<(), SectionError> {
+        match &self.path {
+            Some(path) if !path.is_dir() => SectionError::at(
+                "prior.path",
+                format!(
+                    "{} is not a folder (a session folder, or a run folder holding one)",
+                    path.display()
+                ),
+            ),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// A slot table as written: the selected plugin and the parameter tables of any plugins.
 #[derive(Clone, Debug, Deserialize)]
 pub(crate) struct RawSlot {
@@ -380,6 +418,8 @@ pub(crate) struct RawConfig {
     pub loops: LoopsSection,
     #[serde(default)]
     pub output: OutputSection,
+    #[serde(default)]
+    pub prior: PriorSection,
     pub source: Option<RawSlot>,
     pub odometry: Option<RawSlot>,
     pub descriptor: Option<RawSlot>,

@@ -23,6 +23,12 @@ pub(crate) fn send_all(robot: &mut RobotHost, messages: Vec<Message>) {
 /// Encodes and sends one message from `robot` to `destination`; a failure is logged, never fatal.
 pub(crate) fn send_to(robot: &mut RobotHost, destination: Destination, message: Message) {
     let robot_id = robot.robot();
+    // A prior map is a silent peer: nothing is sent to it.
+    if let Destination::Robot(to) = destination
+        && crate::prior::is_prior_robot(to)
+    {
+        return;
+    }
     let Some((transport, protocol)) = robot.transport_and_protocol() else {
         return;
     };

@@ -18,6 +18,12 @@ pub enum RuntimeError {
     /// folder stays `<name>.incomplete/`.
     #[error("stopped by signal {signal} before the end")]
     Interrupted { signal: i32 },
+    /// The prior map (`[prior] path`) cannot be used.
+    #[error("prior.path = {}: {message}", path.display())]
+    Prior {
+        path: std::path::PathBuf,
+        message: String,
+    },
     /// An output could not be written.
     #[error("writing {}: {message}", path.display())]
     Output {

@@ -24,6 +24,8 @@ pub struct Fleet {
     pub network: Option<Arc<dyn SimulatedNetwork>>,
     /// What watches the robots as they run (a live ROS 2 bridge, …).
     pub observers: Observers,
+    /// The prior map the robots localise in (`[prior]`), shared by every host.
+    pub prior: Option<Arc<crate::prior::PriorMap>>,
 }
 
 /// A name for one fleet's run, unique within the process, for the plugins that share state between the
@@ -114,6 +116,7 @@ impl Fleet {
     /// use all of it, since only one robot runs at a time.
     pub fn build(config: ResolvedConfig, registry: &Registry) -> Result<Self, RuntimeError> {
         let run_scope = new_run_scope();
+        let prior = crate::prior::load_prior(&config)?;
         let mut robots = Vec::new();
         for index in 0..config.run.robots {
             // Lockstep runs must reproduce bit for bit, so the session number comes from the seed.
@@ -128,6 +131,9 @@ impl Fleet {
                 HostClock::scan_time(),
                 Some(run_scope.clone()),
             )?);
+            if let (Some(prior), Some(host)) = (&prior, robots.last_mut()) {
+                host.take_prior(prior, &config.slot(Slot::Descriptor).plugin)?;
+            }
         }
         let network = robots
             .iter()
@@ -137,6 +143,7 @@ impl Fleet {
             robots,
             network,
             observers: Observers::default(),
+            prior,
         })
     }
 }

@@ -18,6 +18,7 @@ mod fleet;
 mod frontend;
 mod graph;
 mod host;
+mod localisation;
 mod lockstep;
 mod loop_lines;
 mod map_clouds;
@@ -26,6 +27,7 @@ mod metrics;
 mod observer;
 mod outputs;
 mod peer_faults;
+mod prior;
 mod process;
 mod run_folder;
 mod run_record;
@@ -43,7 +45,8 @@ pub use fleet::Fleet;
 pub use frontend::{FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome, ThreadFeed};
 pub use graph::HostGraph;
 pub use host::{
-    CloudServing, JoinedFrame, LoopStanding, LoopStats, Plugins, RobotHost, ScanRecord, StandingLoop,
+    CloudServing, JoinedFrame, Localisation, LoopStanding, LoopStats, Plugins, RobotHost, ScanRecord,
+    StandingLoop,
 };
 pub use loop_lines::{LOOP_CLASSES, PlacedLoop, loop_class_of_namespace, own_frame_loops};
 pub use map_clouds::{MAP_VOXEL_M, merged_map};

@@ -13,6 +13,11 @@ use crate::host::RobotHost;
 
 fn robot_session(robot: &RobotHost, map_from_robot: Option<Pose>) -> SessionRobot {
     let descriptors = robot.own_descriptors();
+    let truth: std::collections::BTreeMap<u64, Pose> = robot
+        .scans()
+        .iter()
+        .filter_map(|scan| Some((scan.stamp_nanos, scan.ground_truth?)))
+        .collect();
     let keyframes = robot
         .keyframes()
         .iter()
@@ -21,6 +26,7 @@ fn robot_session(robot: &RobotHost, map_from_robot: Option<Pose>) -> SessionRobo
             stamp_nanos: keyframe.stamp_nanos,
             map_from_sensor: robot.keyframe_pose(index).unwrap_or(keyframe.world_from_sensor),
             odometry_from_sensor: keyframe.world_from_sensor,
+            ground_truth: truth.get(&keyframe.stamp_nanos).copied(),
             point_count: keyframe.cloud.len(),
             descriptor: descriptors.get(&index).map(|d| d.values.clone()),
         })

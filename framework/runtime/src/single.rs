@@ -67,7 +67,7 @@ impl SingleRobot {
         config.run.name = format!("{}-robot{index}", config.run.name);
         // Peers start, stop and restart on their own and this robot lingers after its scans end, so
         // its cloud requests are timed by the wall clock.
-        let host = build_host(
+        let mut host = build_host(
             &config,
             registry,
             RobotId(index),
@@ -75,12 +75,17 @@ impl SingleRobot {
             HostClock::wall(),
             None,
         )?;
+        let prior = crate::prior::load_prior(&config)?;
+        if let Some(prior) = &prior {
+            host.take_prior(prior, &config.slot(skid_core::Slot::Descriptor).plugin)?;
+        }
         Ok(Self {
             fleet: Fleet {
                 config,
                 robots: vec![host],
                 network: None,
                 observers: Observers::default(),
+                prior,
             },
             catch_up: CatchUp::default(),
         })

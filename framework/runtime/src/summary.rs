@@ -44,6 +44,9 @@ pub struct RobotSummary {
     /// loops with them) and those joined through them, each with where that robot's first keyframe sits
     /// in the frame of this robot's first keyframe.
     pub merged_with: Vec<MergedFrame>,
+    /// Its standing in the prior map, when the run has one (`[prior]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub localisation: Option<crate::localisation::LocalisationSummary>,
 }
 
 /// A merged robot's frame as one robot holds it.
@@ -86,7 +89,17 @@ impl RunSummary {
             name: fleet.config.run.name.clone(),
             skid_version: env!("CARGO_PKG_VERSION"),
             skid_commit: option_env!("SKID_GIT_COMMIT"),
-            robots: fleet.robots.iter().map(robot_summary).collect(),
+            robots: fleet
+                .robots
+                .iter()
+                .map(|host| RobotSummary {
+                    localisation: fleet
+                        .prior
+                        .as_deref()
+                        .map(|prior| crate::localisation::summarise(host, prior)),
+                    ..robot_summary(host)
+                })
+                .collect(),
             wall_s,
             slots: Slot::ALL
                 .iter()
@@ -155,6 +168,7 @@ fn robot_summary(host: &RobotHost) -> RobotSummary {
                 }
             })
             .collect(),
+        localisation: None,
     }
 }
 

@@ -14,7 +14,8 @@
 //!                                the descriptor (kind, parameters, length), the effective configuration
 //!                                (TOML text) and, per robot, where its map frame sits in the session's
 //!   robot<i>/keyframes.json      per keyframe: index, stamp (ns), pose in the robot's map frame (the
-//!                                back-end's optimised estimate), the odometry's pose, the point count
+//!                                back-end's optimised estimate), the odometry's pose, the true pose
+//!                                when the source knew it (`ground_truth`, optional), the point count
 //!   robot<i>/descriptors.bin     the keyframes' descriptors (below)
 //!   robot<i>/pose_graph.g2o      the robot's pose graph: its keyframes and the peers' it held (vertex id
 //!                                = robot · 10⁶ + keyframe index), odometry edges and the accepted loops

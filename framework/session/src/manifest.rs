@@ -93,5 +93,7 @@ pub(crate) struct KeyframeRecord {
     pub stamp_nanos: u64,
     pub map_from_sensor: PoseRecord,
     pub odometry_from_sensor: PoseRecord,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ground_truth: Option<PoseRecord>,
     pub points: usize,
 }

@@ -27,6 +27,9 @@ pub struct SessionKeyframe {
     pub map_from_sensor: Pose,
     /// The odometry's pose of the keyframe, in the odometry's world frame.
     pub odometry_from_sensor: Pose,
+    /// The keyframe's true pose in the world, when the source knew it (the simulator, a dataset's
+    /// ground truth): what benchmarks judge a relocalisation by.
+    pub ground_truth: Option<Pose>,
     /// Points in the keyframe's cloud file.
     pub point_count: usize,
     /// The keyframe's descriptor, when it was described.

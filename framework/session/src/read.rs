@@ -103,6 +103,10 @@ fn keyframes_of(dir: &Path, robot: u32, expected: usize) -> Result<Vec<SessionKe
             stamp_nanos: record.stamp_nanos,
             map_from_sensor: pose("map_from_sensor", record.map_from_sensor)?,
             odometry_from_sensor: pose("odometry_from_sensor", record.odometry_from_sensor)?,
+            ground_truth: record
+                .ground_truth
+                .map(|truth| pose("ground_truth", truth))
+                .transpose()?,
             point_count: record.points,
             descriptor: None,
         });

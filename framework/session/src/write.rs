@@ -63,6 +63,7 @@ fn write_robot<'a>(
             stamp_nanos: keyframe.stamp_nanos,
             map_from_sensor: PoseRecord::from_pose(&keyframe.map_from_sensor),
             odometry_from_sensor: PoseRecord::from_pose(&keyframe.odometry_from_sensor),
+            ground_truth: keyframe.ground_truth.as_ref().map(PoseRecord::from_pose),
             points: points.len(),
         });
         if let Some(values) = &keyframe.descriptor {

@@ -51,6 +51,7 @@ fn example() -> (Session, Vec<Vec<Vec<Point>>>) {
                     stamp_nanos: 1_000_000_000 + u64::from(index) * 700_000_000,
                     map_from_sensor,
                     odometry_from_sensor: pose(f64::from(index) * 1.49, 0.0, 0.1 * f64::from(index)),
+                    ground_truth: (robot == 1).then(|| pose(f64::from(index), 7.0, 0.3)),
                     point_count: cloud(robot, index).len(),
                     // Robot 1's last keyframe was not described.
                     descriptor: (robot == 0 || index < 5)
@@ -129,6 +130,10 @@ fn a_session_read_back_has_the_same_keyframes_poses_descriptors_and_clouds() {
             assert_eq!(k.descriptor, o.descriptor);
             assert_close(&k.map_from_sensor, &o.map_from_sensor, 1e-12);
             assert_close(&k.odometry_from_sensor, &o.odometry_from_sensor, 1e-12);
+            assert_eq!(k.ground_truth.is_some(), o.ground_truth.is_some());
+            if let (Some(a), Some(b)) = (&k.ground_truth, &o.ground_truth) {
+                assert_close(a, b, 1e-12);
+            }
             let points = read_keyframe_cloud(dir.path(), back, k).unwrap();
             let expected = cloud(back.robot, k.index);
             assert_eq!(points.len(), expected.len());

@@ -18,6 +18,7 @@ mod live_and_bag;
 mod live_ros2_output;
 mod new_user;
 mod pcm_sets;
+mod prior_map;
 mod rerun_recording;
 mod run_folders;
 mod run_record;

@@ -53,6 +53,11 @@ impl PeerClouds {
         self.held.get(&id).cloned()
     }
 
+    /// Holds a cloud no one asked for over a link: a prior map's, loaded with the run.
+    pub(crate) fn hold(&mut self, id: KeyframeId, cloud: Arc<Cloud>) {
+        self.held.insert(id, cloud);
+    }
+
     pub(crate) fn holds(&self, id: KeyframeId) -> bool {
         self.held.contains_key(&id)
     }

@@ -1,0 +1,72 @@
+//! A robot localises in the prior map an earlier run left (`[prior]`), with another LiDAR than the one
+//! that mapped it, and a robot whose route the prior does not hold stays "not localised"; a prior whose
+//! descriptors were made with other parameters is refused, naming the key.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn skid_run(out: &Path, name: &str, sets: &[&str]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_skid"));
+    command.current_dir(repo()).env_remove("RUST_LOG");
+    command.args(["-q", "run"]);
+    for set in [
+        "run.robots=2",
+        "run.max_scans=200",
+        "output.record=false",
+        &format!("run.output_dir={}", out.display()),
+        &format!("run.name={name}"),
+    ]
+    .iter()
+    .chain(sets)
+    {
+        command.args(["--set", set]);
+    }
+    command.output().expect("skid runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn a_robot_localises_in_a_prior_map_and_a_robot_outside_it_does_not() {
+    let out = tempfile::tempdir().unwrap();
+    // The map: 20 s of two robots that do not meet, so only robot 0's track is placed in its frame.
+    let mapped = skid_run(out.path(), "mapped", &[]);
+    assert!(mapped.status.success(), "{}", text(&mapped.stderr));
+    let prior = format!("prior.path={}", out.path().join("mapped").display());
+
+    // The same routes with a 32-beam LiDAR instead of the 64-beam one that made the map.
+    let run = skid_run(out.path(), "localise", &[&prior, "source.sim.sensor=os1-32"]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let on_map = &summary["robots"][0]["localisation"];
+    assert_eq!(on_map["localised"], true, "{on_map}");
+    assert_eq!(on_map["through_session_robot"], 0, "{on_map}");
+    let error_m = on_map["error_m"].as_f64().unwrap();
+    let error_deg = on_map["error_deg"].as_f64().unwrap();
+    assert!(error_m < 0.3 && error_deg < 1.0, "{on_map}");
+    assert!(
+        on_map["first_fix_distance_m"].as_f64().unwrap() < 20.0,
+        "{on_map}"
+    );
+    // Robot 1 drives a sector 80 m away that the prior does not hold.
+    let off_map = &summary["robots"][1]["localisation"];
+    assert_eq!(off_map["localised"], false, "{off_map}");
+
+    let mismatched = skid_run(
+        out.path(),
+        "mismatched",
+        &[&prior, "descriptor.solid.num_range_bins=20", "run.max_scans=1"],
+    );
+    assert!(!mismatched.status.success());
+    let error = text(&mismatched.stderr);
+    assert!(
+        error.contains("prior.path") && error.contains("descriptor.solid.num_range_bins"),
+        "{error}"
+    );
+}

@@ -1,0 +1,144 @@
+//! The prior map as a silent peer of this robot (see `crate::prior`): its keyframes' descriptors in the
+//! index, their clouds held, their poses as a chain the verifier and the back-end read like a peer's
+//! odometry; and where the verifier's loops with it place this robot in the prior's map frame.
+
+use skid_core::slots::DescriptorBuf;
+use skid_core::{KeyframeId, Pose, RobotId, Slot};
+
+use super::RobotHost;
+use crate::error::RuntimeError;
+use crate::prior::{PriorMap, is_prior_robot, prior_step_covariance};
+
+/// Where a robot stands in the prior's map.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Localisation {
+    /// The prior robot whose loops place it.
+    pub through: RobotId,
+    /// The robot's map frame in the prior's map frame.
+    pub prior_from_map: Pose,
+    /// Loops with the prior the verifier accepted (0 when placed through a fleet peer).
+    pub loops: usize,
+    /// The fleet peer whose reported frames place this robot, when it holds no loop with the prior.
+    pub via: Option<RobotId>,
+}
+
+impl RobotHost {
+    /// Takes in the prior: descriptors into the index, clouds held, each prior robot's keyframes as a
+    /// chain in the prior's map frame.
+    pub fn take_prior(&mut self, prior: &PriorMap, descriptor_plugin: &str) -> Result<(), RuntimeError> {
+        let robot = self.robot;
+        for keyframe in &prior.keyframes {
+            let id = keyframe.id;
+            let previous = id.index.checked_sub(1).map(|index| KeyframeId {
+                robot: id.robot,
+                index,
+            });
+            match previous.filter(|&p| self.chains.contains(p)) {
+                Some(_) => self
+                    .chains
+                    .insert(id, keyframe.session_from_sensor, prior_step_covariance()),
+                None => self.chains.insert_without_step(id, keyframe.session_from_sensor),
+            }
+            self.peer_clouds.hold(id, keyframe.cloud.clone());
+            if let Some(index) = self.index.as_mut() {
+                let descriptor = DescriptorBuf {
+                    kind: prior.descriptor_kind.clone(),
+                    values: keyframe.descriptor.clone(),
+                };
+                index
+                    .insert(id, descriptor)
+                    .map_err(|source| RuntimeError::Plugin {
+                        robot,
+                        slot: Slot::Descriptor,
+                        plugin: descriptor_plugin.to_string(),
+                        source,
+                    })?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Where the verifier's accepted loops with a prior robot place this robot's map frame in the
+    /// prior's map frame: through the prior robot with the most loops, the median of the placements its
+    /// loops imply (each loop: the prior keyframe's pose, the loop, this robot's optimised keyframe pose).
+    /// Without such loops, a robot is placed through a fleet peer that reports the prior's frame (the
+    /// fleet's frame bookkeeping: chains of reported frames, checked against each other). `None` until
+    /// either stands.
+    pub fn localisation(&self) -> Option<Localisation> {
+        self.localisation_by_loops()
+            .or_else(|| self.localisation_through_peers())
+    }
+
+    /// The placement through a fleet peer, from the frame book's chains of reported frames.
+    fn localisation_through_peers(&self) -> Option<Localisation> {
+        let joined = self.joined_frames();
+        let (&through, frame) = joined
+            .iter()
+            .find(|(robot, frame)| is_prior_robot(**robot) && frame.via.is_some())?;
+        let prior_first = self.chains.pose(KeyframeId {
+            robot: through,
+            index: 0,
+        })?;
+        let own_first = self.keyframe_pose(0)?;
+        Some(Localisation {
+            through,
+            prior_from_map: prior_first * frame.own_first_from_robot_first.inverse() * own_first.inverse(),
+            loops: 0,
+            via: frame.via,
+        })
+    }
+
+    /// The placement by this robot's own accepted loops with the prior.
+    fn localisation_by_loops(&self) -> Option<Localisation> {
+        let mut by_prior: std::collections::BTreeMap<RobotId, Vec<Pose>> = std::collections::BTreeMap::new();
+        for closure in self.loops.accepted().values() {
+            let (own, prior, own_from_prior) = match (closure.target.robot, closure.source.robot) {
+                (t, s) if t == self.robot && is_prior_robot(s) => {
+                    (closure.target, closure.source, closure.target_from_source)
+                }
+                (t, s) if s == self.robot && is_prior_robot(t) => (
+                    closure.source,
+                    closure.target,
+                    closure.target_from_source.inverse(),
+                ),
+                _ => continue,
+            };
+            let (Some(prior_pose), Some(own_pose)) = (self.chains.pose(prior), self.keyframe_pose(own.index))
+            else {
+                continue;
+            };
+            by_prior
+                .entry(prior.robot)
+                .or_default()
+                .push(prior_pose * own_from_prior.inverse() * own_pose.inverse());
+        }
+        let (through, placements) = by_prior
+            .into_iter()
+            .max_by_key(|(_, placements)| placements.len())?;
+        Some(Localisation {
+            through,
+            prior_from_map: median_pose(&placements)?,
+            loops: placements.len(),
+            via: None,
+        })
+    }
+}
+
+/// The placement whose summed distance to the others (metres, plus radians as metres at 10 m) is least:
+/// a medoid, which one stray placement cannot drag.
+fn median_pose(placements: &[Pose]) -> Option<Pose> {
+    let cost = |a: &Pose| -> f64 {
+        placements
+            .iter()
+            .map(|b| {
+                let delta = a.inverse() * b;
+                delta.translation.vector.norm() + 10.0 * delta.rotation.angle()
+            })
+            .sum()
+    };
+    placements
+        .iter()
+        .map(|p| (cost(p), *p))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, pose)| pose)
+}
