@@ -34,7 +34,7 @@ pub mod trajectory;
 
 pub use gait::Profile;
 pub use imu::{ImuNoise, ImuSimulator};
-pub use mission::{CONVOY_GAP_M, Mission, plan_mission};
+pub use mission::{CONVOY_GAP_M, Mission, plan_mission, plan_wander};
 pub use motion::MotionSpec;
 pub use route::{Overlap, Route, plan_route};
 pub use scan::{ScanNoise, simulate_sweep};

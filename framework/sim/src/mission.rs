@@ -49,13 +49,17 @@ pub enum Mission {
     /// Their inter-robot loops come at a steady rate, which is what a long mission needs to show whether
     /// the cost of handling them grows with the mission.
     Convoy,
+    /// Every robot starts at one junction (`start_junction`, or one `route_seed` picks) and wanders
+    /// from it along the roads, each leaving by its own road where there are enough: the trials of a
+    /// relocalisation benchmark, which start robots anywhere, facing any way.
+    Wander,
 }
 
 /// Metres along the route between consecutive robots of a [`Mission::Convoy`].
 pub const CONVOY_GAP_M: f64 = 30.0;
 
 impl Mission {
-    pub const ALL: [Mission; 8] = [
+    pub const ALL: [Mission; 9] = [
         Mission::ExploreMeet,
         Mission::Rendezvous,
         Mission::Crossing,
@@ -64,6 +68,7 @@ impl Mission {
         Mission::Loner,
         Mission::SharedRoute,
         Mission::Convoy,
+        Mission::Wander,
     ];
 
     pub const fn name(self) -> &'static str {
@@ -76,6 +81,7 @@ impl Mission {
             Mission::Loner => "loner",
             Mission::SharedRoute => "shared_route",
             Mission::Convoy => "convoy",
+            Mission::Wander => "wander",
         }
     }
 }
@@ -389,6 +395,7 @@ pub fn plan_mission(world: &World, mission: Mission, seed: u64, robots: u32, len
                 .collect();
         }
         Mission::Convoy => return convoy(graph, &mut rng, count, length_m),
+        Mission::Wander => return plan_wander(world, seed, 0, None, robots, length_m),
         Mission::ExploreMeet => explore_meet(graph, &mut rng, count, length_m),
         Mission::Rendezvous => rendezvous(graph, &mut rng, count, length_m),
         Mission::Crossing => crossing(graph, &mut rng, count, length_m),
@@ -456,4 +463,64 @@ pub fn plan_mission(world: &World, mission: Mission, seed: u64, robots: u32, len
             steps,
         })
         .collect()
+}
+
+/// The routes of [`Mission::Wander`]: every robot starts on a road out of `start_junction` (or of a
+/// junction `route_seed` picks), somewhere along its first 90 %, and walks `length_m` on from there,
+/// robot `r` taking the junction's `r`-th road (in a random order) and then choosing at random;
+/// `route_seed` varies the roads and the starting points without changing the world.
+pub fn plan_wander(
+    world: &World,
+    seed: u64,
+    route_seed: u64,
+    start_junction: Option<usize>,
+    robots: u32,
+    length_m: f64,
+) -> Vec<Route> {
+    let graph = world.graph();
+    let mut rng = Rng::new(combine(
+        combine(combine(seed, 0x3a2d), route_seed),
+        u64::from(robots),
+    ));
+    let start = start_junction
+        .filter(|&junction| junction < graph.nodes.len())
+        .unwrap_or_else(|| rng.below(graph.nodes.len().max(1)));
+    let adjacency = graph.adjacency();
+    let mut roads: Vec<usize> = adjacency.get(start).cloned().unwrap_or_default();
+    for i in (1..roads.len()).rev() {
+        roads.swap(i, rng.below(i + 1));
+    }
+    (0..robots.max(1))
+        .map(|r| {
+            let first_edge = (!roads.is_empty()).then(|| roads[r as usize % roads.len()]);
+            let steps = walk(graph, &mut rng, start, length_m, &[], first_edge);
+            let offset_m = rng.range(
+                0.0,
+                0.9 * first_edge.map_or(0.0, |edge| graph.edge_length_m(edge)),
+            );
+            Route {
+                robot: r,
+                role: format!("wanders from {offset_m:.0} m along a road out of junction {start}"),
+                centre_line: trim_start(&centre_line_of(graph, &steps), offset_m),
+                steps,
+            }
+        })
+        .collect()
+}
+
+/// `line` without its first `offset_m` metres (it starts at the point that far along it).
+fn trim_start(line: &[[f64; 3]], offset_m: f64) -> Vec<[f64; 3]> {
+    let mut left_m = offset_m;
+    for (i, pair) in line.windows(2).enumerate() {
+        let length_m = (pair[1][0] - pair[0][0]).hypot(pair[1][1] - pair[0][1]);
+        if length_m > left_m {
+            let t = left_m / length_m;
+            let start = [0, 1, 2].map(|k| pair[0][k] + t * (pair[1][k] - pair[0][k]));
+            return std::iter::once(start)
+                .chain(line[i + 1..].iter().copied())
+                .collect();
+        }
+        left_m -= length_m;
+    }
+    line.to_vec()
 }

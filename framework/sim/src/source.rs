@@ -11,7 +11,7 @@ use skid_core::{PluginContext, PluginEntry, PluginError, PluginResult, Registry,
 use crate::SimError;
 use crate::gait::Profile;
 use crate::imu::{ImuNoise, ImuSimulator};
-use crate::mission::{Mission, plan_mission};
+use crate::mission::{Mission, plan_mission, plan_wander};
 use crate::motion::{MotionSpec, trajectory};
 use crate::rng::combine;
 use crate::route::Route;
@@ -54,6 +54,15 @@ pub struct SimConfig {
     /// never meets the others), `shared_route` (patterns around one base walk) or `convoy` (one route
     /// the same way, robots a fixed gap apart).
     pub mission: Mission,
+    /// The season the world is seen in: 0 is the world as `seed` generates it; another value changes its
+    /// loose objects (the planetary world's rocks: 15 % gone, 30 % moved 0.5–3 m), the terrain and the
+    /// roads staying, as a later visit to a mapped place finds it.
+    pub season: u32,
+    /// `wander`: the junction every robot starts at (an index into the world's road graph); unset, one
+    /// `route_seed` picks.
+    pub start_junction: Option<u32>,
+    /// `wander`: varies the start, the roads taken and the sensors' noise without changing the world.
+    pub route_seed: u64,
     /// Scans to produce; 0 = until the end of the route.
     pub frames: u32,
     /// Approximate route length.
@@ -100,6 +109,9 @@ impl Default for SimConfig {
             robots: 3,
             noise: NoiseModel::Datasheet,
             mission: Mission::ExploreMeet,
+            season: 0,
+            start_junction: None,
+            route_seed: 0,
             frames: 0,
             route_length_m: 600.0,
             speed_mps: 1.0,
@@ -281,20 +293,25 @@ impl SimSource {
                 robots: config.robots,
             });
         }
-        let world = World::shared(kind, config.seed);
-        let route = plan_mission(
-            &world,
-            config.mission,
-            config.seed,
-            config.robots,
-            config.route_length_m,
-        )
-        .into_iter()
-        .nth(robot as usize)
-        .ok_or(SimError::RobotIndex {
-            index: robot,
-            robots: config.robots,
-        })?;
+        let world = World::shared_in_season(kind, config.seed, config.season);
+        let routes = match config.mission {
+            Mission::Wander => plan_wander(
+                &world,
+                config.seed,
+                config.route_seed,
+                config.start_junction.map(|junction| junction as usize),
+                config.robots,
+                config.route_length_m,
+            ),
+            mission => plan_mission(&world, mission, config.seed, config.robots, config.route_length_m),
+        };
+        let route = routes
+            .into_iter()
+            .nth(robot as usize)
+            .ok_or(SimError::RobotIndex {
+                index: robot,
+                robots: config.robots,
+            })?;
         let trajectory = Arc::new(trajectory(&world, &route, &config.motion()));
         // The last sweep must end before the trajectory does.
         let available = ((trajectory.end_s() - SWEEP_PERIOD_S) / SWEEP_PERIOD_S)
@@ -305,7 +322,13 @@ impl SimSource {
         } else {
             config.frames.min(available)
         };
+        // The route seed varies the noise too (0 leaves it as it always was).
         let key = combine(combine(config.seed, 0x5ca1), u64::from(robot));
+        let key = if config.route_seed == 0 {
+            key
+        } else {
+            combine(key, config.route_seed)
+        };
         let imu = config.imu.then(|| {
             ImuSimulator::new(config.imu_noise(), combine(key, 1))
                 .mounted(config.sensor_from_imu(), config.imu_clock_offset_s)

@@ -168,15 +168,22 @@ impl fmt::Debug for World {
 
 /// Recently used worlds, most recent last; a few are kept alive so that robots, tools and tests that
 /// ask again do not pay for generation twice.
-type CacheEntry = ((WorldKind, u64), Arc<World>);
+type CacheEntry = ((WorldKind, u64, u32), Arc<World>);
 static CACHE: Mutex<Vec<CacheEntry>> = Mutex::new(Vec::new());
 const CACHED_WORLDS: usize = 3;
 
 impl World {
     /// Generates the world of `kind` for `seed`. The same arguments always give the same world.
     pub fn generate(kind: WorldKind, seed: u64) -> Self {
+        Self::generate_in_season(kind, seed, 0)
+    }
+
+    /// The world of `kind` for `seed` in `season`: season 0 is the world as generated; in any other,
+    /// loose objects have changed (the planetary world's rocks: 15 % gone, 30 % moved 0.5–3 m), while
+    /// the terrain and the roads stay. Other worlds have no seasons yet and are the same in every one.
+    pub fn generate_in_season(kind: WorldKind, seed: u64, season: u32) -> Self {
         let parts = match kind {
-            WorldKind::Planetary => planetary::generate(seed),
+            WorldKind::Planetary => planetary::generate(seed, season),
             WorldKind::Cave => cave::generate(seed),
             WorldKind::Urban => urban::generate(seed, urban::Layout::Irregular),
             WorldKind::Blocks => urban::generate(seed, urban::Layout::IdenticalBlocks),
@@ -194,15 +201,20 @@ impl World {
     /// The world of `kind` for `seed`, shared with every other holder in the process (robots of one
     /// fleet build it once).
     pub fn shared(kind: WorldKind, seed: u64) -> Arc<Self> {
+        Self::shared_in_season(kind, seed, 0)
+    }
+
+    /// [`World::shared`] in `season` (see [`World::generate_in_season`]).
+    pub fn shared_in_season(kind: WorldKind, seed: u64, season: u32) -> Arc<Self> {
         let mut cache = CACHE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Some(index) = cache.iter().position(|(key, _)| *key == (kind, seed)) {
+        if let Some(index) = cache.iter().position(|(key, _)| *key == (kind, seed, season)) {
             let entry = cache.remove(index);
             let world = Arc::clone(&entry.1);
             cache.push(entry);
             return world;
         }
-        let world = Arc::new(Self::generate(kind, seed));
-        cache.push(((kind, seed), Arc::clone(&world)));
+        let world = Arc::new(Self::generate_in_season(kind, seed, season));
+        cache.push(((kind, seed, season), Arc::clone(&world)));
         if cache.len() > CACHED_WORLDS {
             cache.remove(0);
         }

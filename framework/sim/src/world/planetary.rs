@@ -191,7 +191,65 @@ fn add_rock(objects: &mut Mesh, rng: &mut Rng, terrain: &HeightField, x: f64, y:
     );
 }
 
-fn rocks(rng: &mut Rng, graph: &RoadGraph, index: &LaneIndex, terrain: &HeightField) -> Mesh {
+/// What a later season did to the loose rocks: some were moved, some are gone (carried off, buried by
+/// dust). Season 0 is the world as generated.
+struct Season {
+    rng: Option<Rng>,
+}
+
+/// The share of rocks a season removes, and the share it moves.
+const SEASON_REMOVED: f64 = 0.15;
+const SEASON_MOVED: f64 = 0.30;
+
+impl Season {
+    fn new(seed: u64, season: u32) -> Self {
+        Self {
+            rng: (season != 0).then(|| Rng::new(combine(combine(seed, 0x5ea5), u64::from(season)))),
+        }
+    }
+
+    /// Where a rock generated at (x, y) lies this season; `None` when it is gone. A moved rock is
+    /// 0.5 to 3 m from where it was.
+    fn place(&mut self, x: f64, y: f64) -> Option<(f64, f64)> {
+        let Some(rng) = self.rng.as_mut() else {
+            return Some((x, y));
+        };
+        let draw = rng.uniform();
+        if draw < SEASON_REMOVED {
+            return None;
+        }
+        if draw < SEASON_REMOVED + SEASON_MOVED {
+            let (distance_m, heading) = (rng.range(0.5, 3.0), rng.range(0.0, std::f64::consts::TAU));
+            return Some((x + distance_m * heading.cos(), y + distance_m * heading.sin()));
+        }
+        Some((x, y))
+    }
+
+    /// Adds the rock the world generated at (x, y) where this season has it. A rock that is gone still
+    /// draws its shape, so every other rock keeps the shape it has in every season.
+    fn add_rock(
+        &mut self,
+        objects: &mut Mesh,
+        rng: &mut Rng,
+        terrain: &HeightField,
+        x: f64,
+        y: f64,
+        diameter_m: f64,
+    ) {
+        match self.place(x, y) {
+            Some((x, y)) => add_rock(objects, rng, terrain, x, y, diameter_m),
+            None => add_rock(&mut Mesh::default(), rng, terrain, x, y, diameter_m),
+        }
+    }
+}
+
+fn rocks(
+    rng: &mut Rng,
+    graph: &RoadGraph,
+    index: &LaneIndex,
+    terrain: &HeightField,
+    season: &mut Season,
+) -> Mesh {
     let mut objects = Mesh::default();
     let population = RockPopulation::new(0.05, 0.5, 3.0);
     let count = (population.per_m2() * (2.0 * HALF_M - 10.0).powi(2)) as usize;
@@ -205,7 +263,7 @@ fn rocks(rng: &mut Rng, graph: &RoadGraph, index: &LaneIndex, terrain: &HeightFi
         if clearance_m(index, graph, x, y) < diameter_m / 2.0 + CORRIDOR_HALF_M {
             continue;
         }
-        add_rock(&mut objects, rng, terrain, x, y, diameter_m);
+        season.add_rock(&mut objects, rng, terrain, x, y, diameter_m);
         placed += 1;
     }
     // Boulders along the traverses.
@@ -216,14 +274,15 @@ fn rocks(rng: &mut Rng, graph: &RoadGraph, index: &LaneIndex, terrain: &HeightFi
             let lateral_m = diameter_m / 2.0 + rng.range(3.0, 15.0);
             let (x, y) = beside_lane(rng, line, lateral_m);
             if clearance_m(index, graph, x, y) >= diameter_m / 2.0 + CORRIDOR_HALF_M {
-                add_rock(&mut objects, rng, terrain, x, y, diameter_m);
+                season.add_rock(&mut objects, rng, terrain, x, y, diameter_m);
             }
         }
     }
     objects
 }
 
-pub(crate) fn generate(seed: u64) -> WorldParts {
+/// The planetary world of `seed` in `season` (0: as generated; any other: some rocks moved or gone).
+pub(crate) fn generate(seed: u64, season: u32) -> WorldParts {
     let mut rng = Rng::new(combine(seed, 0x91a7));
     let mut graph = traverse_network(seed, &mut rng);
     let lines: Vec<Vec<[f64; 3]>> = graph.edges.iter().map(|(_, _, l)| l.clone()).collect();
@@ -256,7 +315,7 @@ pub(crate) fn generate(seed: u64) -> WorldParts {
         heights,
         vec![Material::Regolith as u8; CELLS * CELLS],
     );
-    let objects = rocks(&mut rng, &graph, &index, &terrain);
+    let objects = rocks(&mut rng, &graph, &index, &terrain, &mut Season::new(seed, season));
 
     for node in &mut graph.nodes {
         node[2] = terrain.height_at(node[0], node[1]) + 3.0;

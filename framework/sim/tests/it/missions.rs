@@ -226,3 +226,44 @@ fn missions_are_deterministic_and_refuse_unknown_names() {
         "{error}"
     );
 }
+
+#[test]
+fn wander_starts_on_a_road_out_of_the_given_junction_and_the_route_seed_moves_the_start() {
+    let world = common::world(WorldKind::Planetary);
+    let graph = world.graph();
+    let junction = graph.nodes.len() / 2;
+    let at = graph.nodes[junction];
+    let first_road_m = graph.adjacency()[junction]
+        .iter()
+        .map(|&edge| graph.edge_length_m(edge))
+        .fold(0.0, f64::max);
+    let starts: Vec<[f64; 3]> = (0..6)
+        .map(|route_seed| {
+            let routes = skid_sim::plan_wander(&world, 7, route_seed, Some(junction), 2, 120.0);
+            assert_eq!(routes.len(), 2);
+            let start = routes[0].centre_line[0];
+            // On a road out of the junction: no farther from it than that road is long.
+            assert!(
+                (start[0] - at[0]).hypot(start[1] - at[1]) <= first_road_m + 1.0,
+                "{start:?}"
+            );
+            let length: f64 = routes[0]
+                .centre_line
+                .windows(2)
+                .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+                .sum();
+            assert!(length > 20.0, "{length} m");
+            start
+        })
+        .collect();
+    let distinct = starts
+        .iter()
+        .enumerate()
+        .filter(|(i, a)| {
+            starts[..*i]
+                .iter()
+                .all(|b| (a[0] - b[0]).hypot(a[1] - b[1]) > 1.0)
+        })
+        .count();
+    assert!(distinct >= 4, "{starts:?}");
+}

@@ -71,3 +71,47 @@ fn rock_above_terrain(world: &skid_sim::World, x: f64, y: f64) -> bool {
         .cast(&ray, 8.0)
         .is_some_and(|hit| hit.material == Material::Rock && top - f64::from(hit.range_m) > ground + 0.5)
 }
+
+/// Counts the places on a 2 m grid within 15 m of the traverses where rock stands above the terrain.
+fn rocky_places(world: &skid_sim::World) -> std::collections::BTreeSet<(i64, i64)> {
+    let mut places = std::collections::BTreeSet::new();
+    for (_, _, line) in &world.graph().edges {
+        for point in line.iter().step_by(2) {
+            for dx in (-15i64..=15).step_by(2) {
+                for dy in (-15i64..=15).step_by(2) {
+                    let (x, y) = ((point[0] as i64 + dx) / 2 * 2, (point[1] as i64 + dy) / 2 * 2);
+                    if rock_above_terrain(world, x as f64, y as f64) {
+                        places.insert((x, y));
+                    }
+                }
+            }
+        }
+    }
+    places
+}
+
+#[test]
+fn a_later_season_moves_and_removes_rocks_and_keeps_the_terrain_and_the_roads() {
+    let world = common::world(WorldKind::Planetary);
+    let same = skid_sim::World::generate_in_season(WorldKind::Planetary, world.seed(), 0);
+    assert_eq!(same.triangle_count(), world.triangle_count());
+    let later = skid_sim::World::generate_in_season(WorldKind::Planetary, world.seed(), 1);
+    assert_eq!(later.graph().nodes, world.graph().nodes);
+    assert_eq!(
+        later.terrain_height(10.0, -20.0),
+        world.terrain_height(10.0, -20.0)
+    );
+    assert!(
+        later.triangle_count() < world.triangle_count(),
+        "some rocks are gone"
+    );
+    let (before, after) = (rocky_places(&world), rocky_places(&later));
+    let kept = before.intersection(&after).count() as f64;
+    // Most rock stays where it was, but not all of it.
+    let share = kept / before.len() as f64;
+    assert!(
+        (0.5..0.95).contains(&share),
+        "{share:.2} of the rocky places kept ({} before)",
+        before.len()
+    );
+}
