@@ -48,6 +48,7 @@ pub use host::{
     CloudServing, JoinedFrame, Localisation, LoopStanding, LoopStats, Plugins, RobotHost, ScanRecord,
     StandingLoop,
 };
+pub use localisation::LocalisationSummary;
 pub use loop_lines::{LOOP_CLASSES, PlacedLoop, loop_class_of_namespace, own_frame_loops};
 pub use map_clouds::{MAP_VOXEL_M, merged_map};
 pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};

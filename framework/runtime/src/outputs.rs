@@ -104,7 +104,16 @@ fn write_into(folder: &Path, fleet: &Fleet, summary: &RunSummary) -> Result<RunM
     write_plots(&folder, &fleet.robots, &clouds, &frames)?;
     if fleet.config.output.record {
         let started = std::time::Instant::now();
-        let path = crate::run_record::write_run_record(&folder, &fleet.robots, &clouds, &frames, &map)?;
+        let in_prior: Vec<Option<Pose>> = fleet
+            .robots
+            .iter()
+            .map(|robot| {
+                fleet.prior.as_ref()?;
+                robot.localisation().map(|placed| placed.prior_from_map)
+            })
+            .collect();
+        let path =
+            crate::run_record::write_run_record(&folder, &fleet.robots, &clouds, (&frames, &in_prior), &map)?;
         let bytes = std::fs::metadata(&path).map_or(0, |m| m.len());
         tracing::info!(
             bytes,

@@ -57,16 +57,6 @@ pub struct PriorMap {
     pub keyframes: Vec<PriorKeyframe>,
 }
 
-/// The session folder `path` names: itself, or the `session` folder of a run folder.
-fn session_folder(path: &Path) -> PathBuf {
-    let inside = path.join("session");
-    if !path.join(skid_session::MANIFEST_FILE).exists() && inside.join(skid_session::MANIFEST_FILE).exists() {
-        inside
-    } else {
-        path.to_path_buf()
-    }
-}
-
 fn prior_error(dir: &Path, message: impl ToString) -> RuntimeError {
     RuntimeError::Prior {
         path: dir.to_path_buf(),
@@ -80,7 +70,7 @@ pub fn load_prior(config: &ResolvedConfig) -> Result<Option<Arc<PriorMap>>, Runt
     let Some(path) = &config.prior.path else {
         return Ok(None);
     };
-    let dir = session_folder(path);
+    let dir = skid_session::session_folder(path);
     let session = skid_session::read_session(&dir).map_err(|e| prior_error(&dir, e))?;
     let slot = config.slot(Slot::Descriptor);
     let Some(spec) = &session.descriptor else {

@@ -62,14 +62,46 @@ impl Record {
     }
 }
 
+/// A frame has one parent: robot 0's `map` goes under the prior's `prior/map` through the first
+/// localised robot placed in it, and a localised robot outside robot 0's frame hangs its own map there.
+fn prior_transforms(
+    robots: &[RobotHost],
+    frames: &[Option<Pose>],
+    in_prior: &[Option<Pose>],
+    stamp_nanos: u64,
+) -> Vec<FrameTransform> {
+    let transform = |child: String, prior_from_child: Pose| FrameTransform {
+        stamp_nanos,
+        parent: "prior/map".to_owned(),
+        child,
+        parent_from_child: pose_to_wire(&prior_from_child),
+    };
+    let mut transforms: Vec<FrameTransform> = frames
+        .iter()
+        .zip(in_prior)
+        .find_map(|(frame, prior)| Some(transform("map".to_owned(), (*prior)? * frame.as_ref()?.inverse())))
+        .into_iter()
+        .collect();
+    for ((robot, frame), prior) in robots.iter().zip(frames).zip(in_prior) {
+        if let (None, Some(prior_from_map)) = (frame, prior) {
+            transforms.push(transform(
+                format!("robot{}/map", robot.robot().0),
+                *prior_from_map,
+            ));
+        }
+    }
+    transforms
+}
+
 /// Writes `<folder>/run.mcap` from the robots' final state; `clouds` holds each robot's keyframe clouds
 /// placed in its map frame and thinned for the record, `frames` places each robot's map frame in robot
-/// 0's (as [`crate::artifacts::frames_in_alpha`]), `map` is the merged map.
+/// 0's (as [`crate::artifacts::frames_in_alpha`]) and, with a prior map, each localised robot's map
+/// frame in the prior's (`in_prior`), `map` is the merged map.
 pub(crate) fn write_run_record(
     folder: &Path,
     robots: &[RobotHost],
     clouds: &[RobotClouds],
-    frames: &[Option<Pose>],
+    (frames, in_prior): (&[Option<Pose>], &[Option<Pose>]),
     map: &[Point],
 ) -> Result<PathBuf, RuntimeError> {
     let path = folder.join("run.mcap");
@@ -82,7 +114,7 @@ pub(crate) fn write_run_record(
     let first_nanos = first_nanos.min(last_nanos);
 
     let tf_static = record.viz_topic("/tf_static", VizType::TfMessage)?;
-    let placed: Vec<FrameTransform> = robots
+    let mut placed: Vec<FrameTransform> = robots
         .iter()
         .zip(frames)
         .filter_map(|(robot, frame)| {
@@ -94,6 +126,7 @@ pub(crate) fn write_run_record(
             })
         })
         .collect();
+    placed.extend(prior_transforms(robots, frames, in_prior, first_nanos));
     record.write(tf_static, first_nanos, &viz::tf_message(&placed))?;
 
     let tf = record.viz_topic("/tf", VizType::TfMessage)?;

@@ -57,6 +57,16 @@ pub const FORMAT_VERSION: u32 = 1;
 /// The manifest's file name inside a session folder.
 pub const MANIFEST_FILE: &str = "session.json";
 
+/// The session folder `path` names: itself, or the `session` folder of a run folder that holds one.
+pub fn session_folder(path: &std::path::Path) -> std::path::PathBuf {
+    let inside = path.join("session");
+    if !path.join(MANIFEST_FILE).exists() && inside.join(MANIFEST_FILE).exists() {
+        inside
+    } else {
+        path.to_path_buf()
+    }
+}
+
 /// The folder of robot `robot` inside a session folder.
 pub fn robot_folder(robot: u32) -> String {
     format!("robot{robot}")

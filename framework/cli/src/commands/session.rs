@@ -2,29 +2,19 @@
 //! which robots are placed in the session's map frame, its descriptor and its size on disk. PATH is a
 //! session folder or a run folder holding one (`runs/<name>/session`).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{Context, Result};
 use skid_session::{SessionInfo, read_session};
 
 use crate::commands::table::Table;
 
-/// The session folder PATH names: itself, or the `session` folder of a run folder.
-fn session_folder(path: &Path) -> PathBuf {
-    let inside = path.join("session");
-    if !path.join(skid_session::MANIFEST_FILE).exists() && inside.join(skid_session::MANIFEST_FILE).exists() {
-        inside
-    } else {
-        path.to_path_buf()
-    }
-}
-
 /// `skid session info PATH [--json]`.
 pub fn info(path: &Path, json: bool) -> Result<()> {
     if !path.exists() {
         anyhow::bail!("{}: no such session folder", path.display());
     }
-    let dir = session_folder(path);
+    let dir = skid_session::session_folder(path);
     let session = read_session(&dir).with_context(|| format!("reading the session in {}", dir.display()))?;
     let info = SessionInfo::of(&session, &dir)?;
     if json {
