@@ -103,6 +103,12 @@ pub const PROFILES: &[BenchProfile] = &[
         binary: "skid-bench-aliasing",
     },
     BenchProfile {
+        name: "relocalise",
+        summary: "a robot placing itself in a prior map: first fixes, false fixes and error from starts on and off the mapped routes, another LiDAR and season; cost beside full SLAM",
+        package: "skid-bench",
+        binary: "skid-bench-relocalise",
+    },
+    BenchProfile {
         name: "table4-latency",
         summary: "paper Table IV: descriptor and cloud message latency at 5-30 m over the loopback link model",
         package: "skid-bench",

@@ -20,6 +20,7 @@ pub mod place_recognition;
 pub mod profile;
 pub mod python_peers;
 pub mod registration;
+pub mod relocalise;
 pub mod report;
 pub mod scale;
 pub mod scale_report;
