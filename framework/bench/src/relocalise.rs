@@ -47,6 +47,9 @@ pub struct RelocaliseSettings {
     /// robot on its own road out of it: some drive mapped roads, others must be placed through them.
     pub fleet_trials: usize,
     pub fleet_robots: u32,
+    /// Drive the mapping mission again (with the trials' sensor and season) with the prior and without
+    /// it, for what localising costs beside full SLAM on the same routes.
+    pub mission_comparison: bool,
 }
 
 impl Default for RelocaliseSettings {
@@ -67,6 +70,7 @@ impl Default for RelocaliseSettings {
             cost_baseline_trials: 8,
             fleet_trials: 4,
             fleet_robots: 3,
+            mission_comparison: true,
         }
     }
 }
@@ -89,6 +93,20 @@ pub struct TrialRow {
     /// The same trial without the prior, when it was run.
     pub slam_loop_ms_per_scan: Option<f64>,
     pub run_wall_s: f64,
+}
+
+/// The mapping mission driven again, with the prior (`localise`) or without it (`full SLAM`).
+#[derive(Clone, Debug, Serialize)]
+pub struct MissionRow {
+    pub mode: &'static str,
+    /// Loop-closure and back-end milliseconds per robot-scan (everything but the source and odometry).
+    pub loop_ms_per_scan: f64,
+    pub robots: usize,
+    pub localised: usize,
+    pub false_fixes: usize,
+    /// The largest error after a fix, metres and degrees.
+    pub worst_error: Option<(f64, f64)>,
+    pub wall_s: f64,
 }
 
 /// One robot of a fleet trial.
@@ -149,6 +167,97 @@ fn loop_ms_per_scan(summary: &skid_runtime::RunSummary) -> f64 {
         .map(|(_, ms)| ms)
         .sum();
     ms / robot.scans.max(1) as f64
+}
+
+/// Drives the mapping mission again, with the trials' sensor and season, with the prior and without.
+pub fn run_mission_comparison(
+    settings: &RelocaliseSettings,
+    session_dir: &Path,
+    registry: &Registry,
+    out: &Path,
+) -> Result<Vec<MissionRow>> {
+    let mut rows = Vec::new();
+    for (mode, prior) in [("localise", Some(session_dir)), ("full SLAM", None)] {
+        let name = format!("mission-{}", mode.replace(' ', "-"));
+        let mut sets = settings.map_sets.clone();
+        sets.extend(
+            settings
+                .trial_sets
+                .iter()
+                .filter(|set| !set.starts_with("source.sim.route_length_m"))
+                .cloned(),
+        );
+        sets.extend([
+            format!("run.name={name}"),
+            format!("run.seed={}", settings.seed),
+            format!("source.sim.seed={}", settings.seed),
+            format!("source.sim.world={}", settings.world),
+            "output.record=false".to_owned(),
+            "output.session=false".to_owned(),
+            format!("run.output_dir=\"{}\"", out.join("runs").display()),
+        ]);
+        if let Some(prior) = prior {
+            sets.push(format!("prior.path=\"{}\"", prior.display()));
+        }
+        let mut fleet = build_fleet(&name, None, sets, registry)?;
+        let summary = fleet
+            .run_lockstep(|_| {})
+            .with_context(|| format!("running {name}"))?;
+        let (loop_ms, scans) = summary.robots.iter().fold((0.0, 0usize), |(ms, scans), robot| {
+            let loop_ms: f64 = robot
+                .stage_ms
+                .iter()
+                .filter(|(stage, _)| !matches!(stage.as_str(), "source" | "odometry"))
+                .map(|(_, ms)| ms)
+                .sum();
+            (ms + loop_ms, scans + robot.scans)
+        });
+        let fixes: Vec<(f64, f64)> = summary
+            .robots
+            .iter()
+            .filter_map(|r| r.localisation.as_ref())
+            .filter_map(|l| l.error_m.zip(l.error_deg))
+            .collect();
+        rows.push(MissionRow {
+            mode,
+            loop_ms_per_scan: loop_ms / scans.max(1) as f64,
+            robots: summary.robots.len(),
+            localised: summary
+                .robots
+                .iter()
+                .filter(|r| r.localisation.as_ref().is_some_and(|l| l.localised))
+                .count(),
+            false_fixes: fixes
+                .iter()
+                .filter(|(m, deg)| is_false_fix(Some(*m), Some(*deg)))
+                .count(),
+            worst_error: fixes.iter().copied().reduce(|a, b| (a.0.max(b.0), a.1.max(b.1))),
+            wall_s: summary.wall_s,
+        });
+    }
+    Ok(rows)
+}
+
+/// The mission comparison in a sentence.
+pub fn mission_markdown(rows: &[MissionRow]) -> String {
+    let of = |mode: &str| rows.iter().find(|r| r.mode == mode);
+    let (Some(localise), Some(slam)) = (of("localise"), of("full SLAM")) else {
+        return String::new();
+    };
+    format!(
+        "The mapping mission driven again with the trials' sensor and season: localising in the map costs \
+         {:.1} ms of loop closure and back-end per robot-scan, full SLAM on the same routes {:.1} ms ({:.0} %); \
+         {} of {} robots localised, {} false fixes, worst error after a fix {}.\n",
+        localise.loop_ms_per_scan,
+        slam.loop_ms_per_scan,
+        100.0 * localise.loop_ms_per_scan / slam.loop_ms_per_scan.max(1e-9),
+        localise.localised,
+        localise.robots,
+        localise.false_fixes,
+        localise
+            .worst_error
+            .map_or("–".to_owned(), |(m, deg)| format!("{m:.3} m / {deg:.2}°")),
+    )
 }
 
 /// Maps the world; returns the session folder.

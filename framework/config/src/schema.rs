@@ -370,7 +370,7 @@ pub enum PriorMode {
 }
 
 /// `[prior]`: a session an earlier run left, that this run's robots localise in.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PriorSection {
     /// The session folder (`runs/<name>/session`, or the run folder holding it); none when absent.
@@ -380,11 +380,35 @@ pub struct PriorSection {
     /// verifies the candidates as inter-robot loops with a peer that does not move, and is placed in the
     /// prior's map frame once the verifier grants a consistent set of them.
     pub mode: PriorMode,
+    /// Also close loops within each robot and between the fleet's robots, as without a prior (full SLAM
+    /// beside the localisation); off, a robot closes loops only with the prior, which is what a robot
+    /// in a known map needs and costs far less.
+    pub own_loops: bool,
+    /// Once localised, a robot registers its candidates with the prior at every this many keyframes
+    /// only (1: at every keyframe), enough to keep the placement current.
+    pub track_every_keyframes: u32,
+}
+
+impl Default for PriorSection {
+    fn default() -> Self {
+        Self {
+            path: None,
+            mode: PriorMode::Localise,
+            own_loops: false,
+            track_every_keyframes: 5,
+        }
+    }
 }
 
 impl PriorSection {
-    /// Checks that a path, when given, names a folder.
+    /// Checks that a path, when given, names a folder, and that tracking is at least every keyframe.
     pub fn validate(&self) -> Result<(), SectionError> {
+        if self.track_every_keyframes == 0 {
+            return SectionError::at(
+                "prior.track_every_keyframes",
+                "prior.track_every_keyframes = 0: at least 1 (1 registers at every keyframe)".to_owned(),
+            );
+        }
         match &self.path {
             Some(path) if !path.is_dir() => SectionError::at(
                 "prior.path",

@@ -4,7 +4,8 @@
 
 use anyhow::Context;
 use skid_bench::relocalise::{
-    RelocaliseSettings, fleet_markdown, map_world, relocalise_markdown, run_fleet_trials, run_trials,
+    RelocaliseSettings, fleet_markdown, map_world, mission_markdown, relocalise_markdown, run_fleet_trials,
+    run_mission_comparison, run_trials,
 };
 
 fn main() -> anyhow::Result<()> {
@@ -43,10 +44,29 @@ fn main() -> anyhow::Result<()> {
             );
             report.push(row)
         })?;
+        let mission = if settings.mission_comparison {
+            run_mission_comparison(settings, &session, &registry, out)?
+        } else {
+            Vec::new()
+        };
+        for row in &mission {
+            eprintln!(
+                "mission, {}: {:.1} ms/robot-scan, {} of {} localised, {} false fixes, worst {:?}, {:.0} s",
+                row.mode,
+                row.loop_ms_per_scan,
+                row.localised,
+                row.robots,
+                row.false_fixes,
+                row.worst_error,
+                row.wall_s
+            );
+            report.push(row)?;
+        }
         Ok(format!(
-            "{}\n{}",
+            "{}\n{}\n{}",
             relocalise_markdown(settings, &rows),
-            fleet_markdown(&fleet)
+            fleet_markdown(&fleet),
+            mission_markdown(&mission)
         ))
     })
 }

@@ -2,6 +2,7 @@
 //! index, their clouds held, their poses as a chain the verifier and the back-end read like a peer's
 //! odometry; and where the verifier's loops with it place this robot in the prior's map frame.
 
+use skid_config::ResolvedConfig;
 use skid_core::slots::DescriptorBuf;
 use skid_core::{KeyframeId, Pose, RobotId, Slot};
 
@@ -23,6 +24,22 @@ pub struct Localisation {
 }
 
 impl RobotHost {
+    /// Where a new keyframe `index` looks for candidates: with its own loops (within the robot and with
+    /// the fleet: always without a prior, and with one when `[prior] own_loops`), and with the prior
+    /// (at every keyframe until the robot is localised, then at every `track_every_keyframes`).
+    pub(crate) fn candidate_sources(&self, config: &ResolvedConfig, index: u32) -> (bool, bool) {
+        if config.prior.path.is_none() {
+            return (true, false);
+        }
+        let localised = self
+            .loops
+            .accepted()
+            .values()
+            .any(|closure| is_prior_robot(closure.target.robot) || is_prior_robot(closure.source.robot));
+        let prior_due = !localised || index.is_multiple_of(config.prior.track_every_keyframes.max(1));
+        (config.prior.own_loops, prior_due)
+    }
+
     /// Takes in the prior: descriptors into the index, clouds held, each prior robot's keyframes as a
     /// chain in the prior's map frame.
     pub fn take_prior(&mut self, prior: &PriorMap, descriptor_plugin: &str) -> Result<(), RuntimeError> {

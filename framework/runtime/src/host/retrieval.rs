@@ -74,7 +74,9 @@ impl RobotHost {
         let me = self.robot;
         let newest_own = self.own.keyframes().keys().next_back().copied();
         let nothing_unseen = newest_own.is_none_or(|newest| !unseen_by_sender(newest, newest_held));
-        if !config.loops.inter_robot || nothing_unseen || !owns_pair(me, peer_keyframe.robot) {
+        // With a prior and without own loops, robots close loops with the prior only.
+        let prior_only = config.prior.path.is_some() && !config.prior.own_loops;
+        if !config.loops.inter_robot || prior_only || nothing_unseen || !owns_pair(me, peer_keyframe.robot) {
             return Ok(());
         }
         let limit = self.candidate_distance_limit(config);

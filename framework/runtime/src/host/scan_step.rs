@@ -208,8 +208,13 @@ impl RobotHost {
         let loops = &config.loops;
         let robot = self.robot;
         let threshold = self.candidate_distance_limit(config);
+        let (own_loops, prior_due) = self.candidate_sources(config, id.index);
         let exclude = |candidate: KeyframeId| {
-            if candidate.robot == robot {
+            if crate::prior::is_prior_robot(candidate.robot) {
+                !prior_due
+            } else if !own_loops {
+                true
+            } else if candidate.robot == robot {
                 !loops.intra_robot || candidate.index + loops.exclude_recent_keyframes >= id.index
             } else {
                 !loops.inter_robot
@@ -219,7 +224,11 @@ impl RobotHost {
             return Ok(());
         };
         let started = Instant::now();
-        let found = index.query(&descriptor, loops.candidates, &exclude);
+        let found = if own_loops || prior_due {
+            index.query(&descriptor, loops.candidates, &exclude)
+        } else {
+            Ok(Vec::new())
+        };
         index.insert(id, descriptor).map_err(|e| RuntimeError::Plugin {
             robot,
             slot: Slot::Descriptor,
