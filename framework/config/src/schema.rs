@@ -387,6 +387,13 @@ pub struct PriorSection {
     /// Once localised, a robot registers its candidates with the prior at every this many keyframes
     /// only (1: at every keyframe), enough to keep the placement current.
     pub track_every_keyframes: u32,
+    /// Where each robot starts in the prior's map, when the user knows it roughly: one
+    /// `[x_m, y_m, z_m, yaw_deg]` per robot, in robot order (robots past the list's end get none). A
+    /// hinted robot registers only candidates whose prior keyframe lies within `hint_radius_m` of where
+    /// the hint and its odometry put it.
+    pub hints: Vec<[f64; 4]>,
+    /// How far from a hinted position a prior keyframe may be and still be a candidate, metres.
+    pub hint_radius_m: f64,
 }
 
 impl Default for PriorSection {
@@ -396,6 +403,8 @@ impl Default for PriorSection {
             mode: PriorMode::Localise,
             own_loops: false,
             track_every_keyframes: 5,
+            hints: Vec::new(),
+            hint_radius_m: 30.0,
         }
     }
 }
@@ -403,6 +412,21 @@ impl Default for PriorSection {
 impl PriorSection {
     /// Checks that a path, when given, names a folder, and that tracking is at least every keyframe.
     pub fn validate(&self) -> Result<(), SectionError> {
+        if !(self.hint_radius_m.is_finite() && self.hint_radius_m > 0.0) {
+            return SectionError::at(
+                "prior.hint_radius_m",
+                format!(
+                    "prior.hint_radius_m = {} must be a positive number of metres",
+                    self.hint_radius_m
+                ),
+            );
+        }
+        if self.hints.iter().flatten().any(|v| !v.is_finite()) {
+            return SectionError::at(
+                "prior.hints",
+                "prior.hints holds a number that is not finite".to_owned(),
+            );
+        }
         if self.track_every_keyframes == 0 {
             return SectionError::at(
                 "prior.track_every_keyframes",

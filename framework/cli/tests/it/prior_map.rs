@@ -1,6 +1,7 @@
 //! A robot localises in the prior map an earlier run left (`[prior]`), with another LiDAR than the one
-//! that mapped it, and a robot whose route the prior does not hold stays "not localised"; a prior whose
-//! descriptors were made with other parameters is refused, naming the key.
+//! that mapped it, and a robot whose route the prior does not hold stays "not localised", as does one
+//! whose start hint points elsewhere; a prior whose descriptors were made with other parameters is
+//! refused, naming the key.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -57,6 +58,21 @@ fn a_robot_localises_in_a_prior_map_and_a_robot_outside_it_does_not() {
     // Robot 1 drives a sector 80 m away that the prior does not hold.
     let off_map = &summary["robots"][1]["localisation"];
     assert_eq!(off_map["localised"], false, "{off_map}");
+
+    // A hint that puts robot 0 300 m from where it starts keeps every candidate out of reach.
+    let misled = skid_run(
+        out.path(),
+        "misled",
+        &[
+            &prior,
+            "source.sim.sensor=os1-32",
+            "prior.hints=[[300.0, 0.0, 0.0, 90.0]]",
+        ],
+    );
+    assert!(misled.status.success(), "{}", text(&misled.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&misled.stdout).unwrap();
+    let misled = &summary["robots"][0]["localisation"];
+    assert_eq!(misled["localised"], false, "{misled}");
 
     let mismatched = skid_run(
         out.path(),

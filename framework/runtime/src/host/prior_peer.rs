@@ -40,6 +40,24 @@ impl RobotHost {
         (config.prior.own_loops, prior_due)
     }
 
+    /// Where the user's hint (`[prior] hints`) and the odometry put `keyframe` in the prior's map, with
+    /// the radius candidates must fall within; `None` without a hint for this robot.
+    pub(crate) fn hinted_position(
+        &self,
+        config: &ResolvedConfig,
+        keyframe: &skid_core::Keyframe,
+    ) -> Option<(nalgebra::Vector3<f64>, f64)> {
+        let [x, y, z, yaw_deg] = *config.prior.hints.get(self.robot.0 as usize)?;
+        let start = Pose::from_parts(
+            nalgebra::Translation3::new(x, y, z),
+            nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
+        );
+        Some((
+            (start * keyframe.world_from_sensor).translation.vector,
+            config.prior.hint_radius_m,
+        ))
+    }
+
     /// Takes in the prior: descriptors into the index, clouds held, each prior robot's keyframes as a
     /// chain in the prior's map frame.
     pub fn take_prior(&mut self, prior: &PriorMap, descriptor_plugin: &str) -> Result<(), RuntimeError> {

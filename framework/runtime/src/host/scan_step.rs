@@ -209,9 +209,16 @@ impl RobotHost {
         let robot = self.robot;
         let threshold = self.candidate_distance_limit(config);
         let (own_loops, prior_due) = self.candidate_sources(config, id.index);
+        let hinted = self.hinted_position(config, keyframe);
+        let chains = &self.chains;
         let exclude = |candidate: KeyframeId| {
             if crate::prior::is_prior_robot(candidate.robot) {
-                !prior_due
+                let beyond_hint = hinted.is_some_and(|(at, radius_m)| {
+                    chains
+                        .pose(candidate)
+                        .is_none_or(|pose| (pose.translation.vector - at).norm() > radius_m)
+                });
+                !prior_due || beyond_hint
             } else if !own_loops {
                 true
             } else if candidate.robot == robot {
