@@ -10,7 +10,6 @@ use rayon::prelude::*;
 
 use crate::SimError;
 use crate::geometry::{Ray, V3};
-use crate::mission::plan_mission;
 use crate::motion::trajectory;
 use crate::source::SimConfig;
 use crate::world::World;
@@ -130,14 +129,7 @@ pub fn preview_png(
 /// Renders the world of `config` with the paths of all its robots.
 pub fn preview_fleet_png(path: impl AsRef<Path>, config: &SimConfig, size_px: u32) -> Result<(), SimError> {
     let (kind, _) = config.validate()?;
-    let world = World::shared(kind, config.seed);
-    let routes = plan_mission(
-        &world,
-        config.mission,
-        config.seed,
-        config.robots,
-        config.route_length_m,
-    );
+    let (world, routes) = config.world_and_routes(kind);
     let paths: Vec<Vec<[f64; 2]>> = routes
         .iter()
         .map(|route| {

@@ -131,6 +131,24 @@ impl Default for SimConfig {
 }
 
 impl SimConfig {
+    /// The world this configuration sees (its kind, seed and season) and every robot's route in it: what
+    /// the source drives and the preview draws.
+    pub fn world_and_routes(&self, kind: WorldKind) -> (Arc<World>, Vec<Route>) {
+        let world = World::shared_in_season(kind, self.seed, self.season);
+        let routes = match self.mission {
+            Mission::Wander => plan_wander(
+                &world,
+                self.seed,
+                self.route_seed,
+                self.start_junction.map(|junction| junction as usize),
+                self.robots,
+                self.route_length_m,
+            ),
+            mission => plan_mission(&world, mission, self.seed, self.robots, self.route_length_m),
+        };
+        (world, routes)
+    }
+
     /// Checks every value, naming the first bad one.
     pub fn validate(&self) -> Result<(WorldKind, Sensor), SimError> {
         let kind: WorldKind = self.world.parse()?;
@@ -293,18 +311,7 @@ impl SimSource {
                 robots: config.robots,
             });
         }
-        let world = World::shared_in_season(kind, config.seed, config.season);
-        let routes = match config.mission {
-            Mission::Wander => plan_wander(
-                &world,
-                config.seed,
-                config.route_seed,
-                config.start_junction.map(|junction| junction as usize),
-                config.robots,
-                config.route_length_m,
-            ),
-            mission => plan_mission(&world, mission, config.seed, config.robots, config.route_length_m),
-        };
+        let (world, routes) = config.world_and_routes(kind);
         let route = routes
             .into_iter()
             .nth(robot as usize)
