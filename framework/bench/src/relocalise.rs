@@ -155,18 +155,18 @@ fn start_junctions(world: &World, mapped: &[[f64; 2]], off_m: f64) -> (Vec<usize
     (on, off)
 }
 
-/// Milliseconds per scan of everything but the source and the odometry.
+/// Milliseconds per robot-scan of everything but the source and the odometry, over every robot.
 fn loop_ms_per_scan(summary: &skid_runtime::RunSummary) -> f64 {
-    let Some(robot) = summary.robots.first() else {
-        return 0.0;
-    };
-    let ms: f64 = robot
-        .stage_ms
-        .iter()
-        .filter(|(stage, _)| !matches!(stage.as_str(), "source" | "odometry"))
-        .map(|(_, ms)| ms)
-        .sum();
-    ms / robot.scans.max(1) as f64
+    let (ms, scans) = summary.robots.iter().fold((0.0, 0usize), |(ms, scans), robot| {
+        let loop_ms: f64 = robot
+            .stage_ms
+            .iter()
+            .filter(|(stage, _)| !matches!(stage.as_str(), "source" | "odometry"))
+            .map(|(_, ms)| ms)
+            .sum();
+        (ms + loop_ms, scans + robot.scans)
+    });
+    ms / scans.max(1) as f64
 }
 
 /// Drives the mapping mission again, with the trials' sensor and season, with the prior and without.
@@ -203,15 +203,6 @@ pub fn run_mission_comparison(
         let summary = fleet
             .run_lockstep(|_| {})
             .with_context(|| format!("running {name}"))?;
-        let (loop_ms, scans) = summary.robots.iter().fold((0.0, 0usize), |(ms, scans), robot| {
-            let loop_ms: f64 = robot
-                .stage_ms
-                .iter()
-                .filter(|(stage, _)| !matches!(stage.as_str(), "source" | "odometry"))
-                .map(|(_, ms)| ms)
-                .sum();
-            (ms + loop_ms, scans + robot.scans)
-        });
         let fixes: Vec<(f64, f64)> = summary
             .robots
             .iter()
@@ -220,7 +211,7 @@ pub fn run_mission_comparison(
             .collect();
         rows.push(MissionRow {
             mode,
-            loop_ms_per_scan: loop_ms / scans.max(1) as f64,
+            loop_ms_per_scan: loop_ms_per_scan(&summary),
             robots: summary.robots.len(),
             localised: summary
                 .robots

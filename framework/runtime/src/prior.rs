@@ -10,7 +10,7 @@
 //! Nothing is ever sent to a prior robot. The session's descriptor must be the run's, parameters and
 //! all: descriptors of another kind or resolution cannot be compared.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 use skid_config::ResolvedConfig;
@@ -24,6 +24,18 @@ pub const PRIOR_ROBOT_BASE: u32 = 1000;
 /// Whether `robot` is one of a prior's robots.
 pub fn is_prior_robot(robot: RobotId) -> bool {
     robot.0 >= PRIOR_ROBOT_BASE
+}
+
+/// Whether robots close loops within themselves and with the fleet: always without a prior, and with
+/// one only when `[prior] own_loops` asks for full SLAM beside the localisation.
+pub(crate) fn closes_own_loops(config: &ResolvedConfig) -> bool {
+    config.prior.path.is_none() || config.prior.own_loops
+}
+
+/// The descriptor plugin's complete parameters as a session stores them (and as a prior's are compared
+/// with the run's).
+pub(crate) fn descriptor_params(config: &ResolvedConfig) -> Result<serde_json::Value, serde_json::Error> {
+    serde_json::to_value(config.slot(Slot::Descriptor).params.table())
 }
 
 /// The step covariance of a prior robot's chain: the session's poses are an optimised map, held to
@@ -50,8 +62,6 @@ pub struct PriorKeyframe {
 
 /// The prior as every host of the run shares it.
 pub struct PriorMap {
-    /// The session folder.
-    pub dir: PathBuf,
     pub descriptor_kind: String,
     /// Keyframes of every placed session robot, by robot then index.
     pub keyframes: Vec<PriorKeyframe>,
@@ -88,7 +98,7 @@ pub fn load_prior(config: &ResolvedConfig) -> Result<Option<Arc<PriorMap>>, Runt
             ),
         ));
     }
-    let params = serde_json::to_value(slot.params.table()).map_err(|e| prior_error(&dir, e))?;
+    let params = descriptor_params(config).map_err(|e| prior_error(&dir, e))?;
     if let (Some(run), Some(saved)) = (params.as_object(), spec.params.as_object()) {
         for (key, value) in run {
             if saved.get(key) != Some(value) {
@@ -132,7 +142,6 @@ pub fn load_prior(config: &ResolvedConfig) -> Result<Option<Arc<PriorMap>>, Runt
     }
     tracing::info!(session = %dir.display(), keyframes = keyframes.len(), "prior map loaded");
     Ok(Some(Arc::new(PriorMap {
-        dir,
         descriptor_kind: spec.kind.clone(),
         keyframes,
     })))

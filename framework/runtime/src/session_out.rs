@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use skid_core::{Pose, Slot};
+use skid_core::Pose;
 use skid_session::{DescriptorSpec, Session, SessionKeyframe, SessionRobot};
 
 use crate::error::{RuntimeError, output_error};
@@ -42,7 +42,6 @@ fn robot_session(robot: &RobotHost, map_from_robot: Option<Pose>) -> SessionRobo
 /// The fleet's session: `frames` places each robot's map in robot 0's.
 fn fleet_session(fleet: &Fleet, frames: &[Option<Pose>]) -> Result<Session, RuntimeError> {
     let config = &fleet.config;
-    let slot = config.slot(Slot::Descriptor);
     let length = fleet
         .robots
         .iter()
@@ -51,7 +50,7 @@ fn fleet_session(fleet: &Fleet, frames: &[Option<Pose>]) -> Result<Session, Runt
     let descriptor = match (fleet.robots.first().and_then(RobotHost::descriptor_kind), length) {
         (Some(kind), Some(length)) => Some(DescriptorSpec {
             kind,
-            params: serde_json::to_value(slot.params.table()).map_err(|e| {
+            params: crate::prior::descriptor_params(config).map_err(|e| {
                 output_error(
                     Path::new("session/session.json"),
                     format!("the descriptor's parameters cannot be written as JSON: {e}"),

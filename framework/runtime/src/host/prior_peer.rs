@@ -28,8 +28,9 @@ impl RobotHost {
     /// the fleet: always without a prior, and with one when `[prior] own_loops`), and with the prior
     /// (at every keyframe until the robot is localised, then at every `track_every_keyframes`).
     pub(crate) fn candidate_sources(&self, config: &ResolvedConfig, index: u32) -> (bool, bool) {
+        let own_loops = crate::prior::closes_own_loops(config);
         if config.prior.path.is_none() {
-            return (true, false);
+            return (own_loops, false);
         }
         let localised = self
             .loops
@@ -37,7 +38,7 @@ impl RobotHost {
             .values()
             .any(|closure| is_prior_robot(closure.target.robot) || is_prior_robot(closure.source.robot));
         let prior_due = !localised || index.is_multiple_of(config.prior.track_every_keyframes.max(1));
-        (config.prior.own_loops, prior_due)
+        (own_loops, prior_due)
     }
 
     /// Where the user's hint (`[prior] hints`) and the odometry put `keyframe` in the prior's map, with

@@ -75,7 +75,7 @@ impl RobotHost {
         let newest_own = self.own.keyframes().keys().next_back().copied();
         let nothing_unseen = newest_own.is_none_or(|newest| !unseen_by_sender(newest, newest_held));
         // With a prior and without own loops, robots close loops with the prior only.
-        let prior_only = config.prior.path.is_some() && !config.prior.own_loops;
+        let prior_only = !crate::prior::closes_own_loops(config);
         if !config.loops.inter_robot || prior_only || nothing_unseen || !owns_pair(me, peer_keyframe.robot) {
             return Ok(());
         }
