@@ -36,6 +36,7 @@
 mod descriptors;
 mod error;
 mod info;
+mod join;
 mod manifest;
 mod model;
 mod read;
@@ -44,6 +45,7 @@ mod write;
 pub use descriptors::{DecodedDescriptors, decode_descriptors, encode_descriptors};
 pub use error::SessionError;
 pub use info::{RobotInfo, SessionInfo};
+pub use join::{JoinPart, Joined, PartClouds, write_joined};
 pub use model::{DescriptorSpec, Session, SessionKeyframe, SessionRobot};
 pub use read::{read_keyframe_cloud, read_session};
 pub use write::write_session;

@@ -7,7 +7,9 @@ use skid_io::g2o::write_g2o_3d;
 use skid_io::ply::{PlyFormat, write_ply};
 
 use crate::manifest::{DescriptorRecord, KeyframeRecord, Manifest, PoseRecord, RobotRecord};
-use crate::{FORMAT_NAME, FORMAT_VERSION, MANIFEST_FILE, Session, SessionError, SessionRobot};
+use crate::{
+    FORMAT_NAME, FORMAT_VERSION, MANIFEST_FILE, Session, SessionError, SessionKeyframe, SessionRobot,
+};
 
 fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), SessionError> {
     std::fs::write(path, bytes).map_err(|e| SessionError::io(path, e))
@@ -44,27 +46,30 @@ fn manifest(session: &Session) -> Manifest {
     }
 }
 
-fn write_robot<'a>(
+/// Writes one keyframe's cloud file at the given path and returns its point count.
+pub(crate) type CloudWriter<'w> = dyn FnMut(&SessionKeyframe, &Path) -> Result<usize, SessionError> + 'w;
+
+/// Writes a robot's folder: its keyframes, descriptors, pose graph and, through `write_cloud`, one
+/// cloud file per keyframe.
+pub(crate) fn write_robot(
     folder: &Path,
     robot: &SessionRobot,
     length: usize,
-    cloud_of: &impl Fn(u32, u32) -> Option<&'a [Point]>,
+    write_cloud: &mut CloudWriter<'_>,
 ) -> Result<(), SessionError> {
     let clouds = folder.join("clouds");
     std::fs::create_dir_all(&clouds).map_err(|e| SessionError::io(&clouds, e))?;
     let mut records = Vec::with_capacity(robot.keyframes.len());
     let mut descriptors: Vec<(u32, &[f32])> = Vec::new();
     for keyframe in &robot.keyframes {
-        let points = cloud_of(robot.robot, keyframe.index).unwrap_or_default();
-        let path = folder.join(crate::cloud_file(keyframe.index));
-        write_ply(&path, points, PlyFormat::BinaryLittleEndian)?;
+        let points = write_cloud(keyframe, &folder.join(crate::cloud_file(keyframe.index)))?;
         records.push(KeyframeRecord {
             index: keyframe.index,
             stamp_nanos: keyframe.stamp_nanos,
             map_from_sensor: PoseRecord::from_pose(&keyframe.map_from_sensor),
             odometry_from_sensor: PoseRecord::from_pose(&keyframe.odometry_from_sensor),
             ground_truth: keyframe.ground_truth.as_ref().map(PoseRecord::from_pose),
-            points: points.len(),
+            points,
         });
         if let Some(values) = &keyframe.descriptor {
             descriptors.push((keyframe.index, values));
@@ -79,6 +84,11 @@ fn write_robot<'a>(
     Ok(())
 }
 
+/// Writes the manifest, last: a folder without one is a session whose writing did not finish.
+pub(crate) fn write_manifest(dir: &Path, session: &Session) -> Result<(), SessionError> {
+    write_json(&dir.join(MANIFEST_FILE), &manifest(session))
+}
+
 /// Writes `session` into the folder `dir` (created if needed); `cloud_of(robot, index)` gives each
 /// keyframe's cloud in its sensor frame (a keyframe without one is written as an empty cloud).
 pub fn write_session<'a>(
@@ -89,13 +99,17 @@ pub fn write_session<'a>(
     std::fs::create_dir_all(dir).map_err(|e| SessionError::io(dir, e))?;
     let length = session.descriptor.as_ref().map_or(0, |spec| spec.length);
     for robot in &session.robots {
+        let mut write_cloud = |keyframe: &SessionKeyframe, path: &Path| {
+            let points = cloud_of(robot.robot, keyframe.index).unwrap_or_default();
+            write_ply(path, points, PlyFormat::BinaryLittleEndian)?;
+            Ok(points.len())
+        };
         write_robot(
             &dir.join(crate::robot_folder(robot.robot)),
             robot,
             length,
-            &cloud_of,
+            &mut write_cloud,
         )?;
     }
-    // The manifest comes last: a folder without one is a session whose writing did not finish.
-    write_json(&dir.join(MANIFEST_FILE), &manifest(session))
+    write_manifest(dir, session)
 }

@@ -235,3 +235,94 @@ fn a_damaged_session_is_refused_naming_the_file_and_the_entry() {
     std::fs::remove_file(&manifest).unwrap();
     assert!(refused(dir.path()).contains("not a session folder"));
 }
+
+#[test]
+fn joined_sessions_keep_every_robot_renumbered_and_placed_where_the_caller_says() {
+    let first = tempfile::tempdir().unwrap();
+    let second = tempfile::tempdir().unwrap();
+    let a = write(first.path());
+    let b = write(second.path());
+    let out = tempfile::tempdir().unwrap();
+    let joined_dir = out.path().join("joined");
+    let moved = pose(10.0, -3.0, 0.7);
+    let (_, b_clouds) = example();
+    let b_cloud_of = |robot: u32, index: u32| {
+        b_clouds
+            .get(robot as usize)?
+            .get(index as usize)
+            .map(Vec::as_slice)
+    };
+    let parts = [
+        skid_session::JoinPart {
+            session: &a,
+            placements: a.robots.iter().map(|r| r.map_from_robot).collect(),
+            clouds: skid_session::PartClouds::Folder(first.path()),
+            graph_ids: Default::default(),
+        },
+        skid_session::JoinPart {
+            session: &b,
+            // Robot 0 of the second session is placed; its robot 1 stays unplaced.
+            placements: vec![Some(moved)],
+            clouds: skid_session::PartClouds::Memory(&b_cloud_of),
+            graph_ids: Default::default(),
+        },
+    ];
+    let joined = skid_session::write_joined(&joined_dir, "joined", &parts).unwrap();
+    assert_eq!(joined.ids[1].get(&0), Some(&2));
+    assert_eq!(joined.ids[1].get(&1), Some(&3));
+    let read = read_session(&joined_dir).unwrap();
+    assert_eq!(read.name, "joined");
+    let ids: Vec<u32> = read.robots.iter().map(|r| r.robot).collect();
+    assert_eq!(ids, [0, 1, 2, 3]);
+    assert_close(read.robots[2].map_from_robot.as_ref().unwrap(), &moved, 1e-9);
+    assert!(read.robots[1].map_from_robot.is_none() && read.robots[3].map_from_robot.is_none());
+    // The second session's robot 1 is robot 3 now, in its keyframes, clouds and graph alike.
+    let robot = &read.robots[3];
+    assert_eq!(robot.keyframes.len(), b.robots[1].keyframes.len());
+    for (k, o) in robot.keyframes.iter().zip(&b.robots[1].keyframes) {
+        assert_eq!((k.index, &k.descriptor), (o.index, &o.descriptor));
+        assert_close(&k.map_from_sensor, &o.map_from_sensor, 1e-12);
+    }
+    for keyframe in &robot.keyframes {
+        assert_eq!(
+            read_keyframe_cloud(&joined_dir, robot, keyframe).unwrap().len(),
+            cloud(1, keyframe.index).len()
+        );
+    }
+    assert!(robot.graph.vertices.keys().all(|id| id / 1_000_000 == 3));
+    assert!(robot.graph.edges.iter().all(|e| e.from / 1_000_000 == 3));
+    // Copied cloud files are the first session's, byte for byte.
+    let name = skid_session::cloud_file(4);
+    assert_eq!(
+        std::fs::read(joined_dir.join("robot1").join(&name)).unwrap(),
+        std::fs::read(first.path().join("robot1").join(&name)).unwrap()
+    );
+
+    // A session described otherwise cannot join, and no join overwrites one of its parts.
+    let mut other = b.clone();
+    other.descriptor.as_mut().unwrap().params = serde_json::json!({"num_range": 20, "fov_up_deg": 2.0});
+    let parts = [
+        skid_session::JoinPart {
+            session: &a,
+            placements: vec![],
+            clouds: skid_session::PartClouds::Folder(first.path()),
+            graph_ids: Default::default(),
+        },
+        skid_session::JoinPart {
+            session: &other,
+            placements: vec![],
+            clouds: skid_session::PartClouds::Memory(&b_cloud_of),
+            graph_ids: Default::default(),
+        },
+    ];
+    let error = skid_session::write_joined(&out.path().join("other"), "x", &parts)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(error.contains("num_range"), "{error}");
+    let error = skid_session::write_joined(first.path(), "x", &parts[..1])
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(error.contains("overwrite"), "{error}");
+}
