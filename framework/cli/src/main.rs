@@ -177,7 +177,7 @@ enum Command {
     /// Inspect ROS bags and MCAP files.
     #[command(subcommand)]
     Bag(BagCommand),
-    /// Inspect the sessions runs leave (`runs/<name>/session`).
+    /// Inspect and merge the sessions runs leave (`runs/<name>/session`).
     #[command(subcommand)]
     Session(SessionCommand),
     /// Fleet set-up for real networks.
@@ -227,6 +227,25 @@ enum SessionCommand {
         /// A session folder, or a run folder holding one.
         path: PathBuf,
         /// Print one JSON line instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Place sessions in the first one's map frame by inter-session loops (the configured descriptor,
+    /// registration and verifier, as in a run) and write them as one session with its `map.ply` and
+    /// `merge.json`; a session whose place is not verified, or whose robots disagree on it, is reported
+    /// and left out.
+    Merge {
+        /// Session folders (or run folders holding one); the first is the base.
+        #[arg(required = true, num_args = 2..)]
+        sessions: Vec<PathBuf>,
+        /// The folder the merged session is written to (it must not exist or be empty).
+        #[arg(long)]
+        out: PathBuf,
+        /// Override a value of each session's configuration while it is localised:
+        /// `--set section.key=value` (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Print the report as one JSON line instead of the table.
         #[arg(long)]
         json: bool,
     },
@@ -504,6 +523,12 @@ fn main() -> ExitCode {
         } => commands::extra::sim_preview(&flags.args(), &out, size_px),
         Command::Bag(BagCommand::Info { path, json }) => commands::bag::info(&path, json),
         Command::Session(SessionCommand::Info { path, json }) => commands::session::info(&path, json),
+        Command::Session(SessionCommand::Merge {
+            sessions,
+            out,
+            sets,
+            json,
+        }) => commands::session::merge(&registry, sessions, out, sets, json),
         Command::Fleet(FleetCommand::Certs {
             hosts,
             robots,

@@ -6,12 +6,13 @@
 use std::sync::Arc;
 
 use skid_config::ResolvedConfig;
-use skid_core::slots::SimulatedNetwork;
+use skid_core::slots::{SimulatedNetwork, Source};
 use skid_core::{PluginContext, PluginError, Registry, RobotId, Slot};
 use skid_protocol::{ProtocolConfig, ProtocolEndpoint};
 
 use crate::clock::HostClock;
 use crate::error::RuntimeError;
+use crate::frontend::{DetachedSource, FrontEndFeed};
 use crate::host::{Plugins, RobotHost};
 use crate::observer::Observers;
 
@@ -86,20 +87,41 @@ pub(crate) fn build_host(
     clock: HostClock,
     run_scope: Option<String>,
 ) -> Result<RobotHost, RuntimeError> {
+    build_host_fed(config, registry, robot, session, clock, run_scope, None)
+}
+
+/// Builds one robot's host as [`build_host`] does, or, given a `feed`, with no source or odometry: the
+/// host reads the feed's outputs instead.
+fn build_host_fed(
+    config: &ResolvedConfig,
+    registry: &Registry,
+    robot: RobotId,
+    session: u32,
+    clock: HostClock,
+    run_scope: Option<String>,
+    feed: Option<Box<dyn FrontEndFeed>>,
+) -> Result<RobotHost, RuntimeError> {
     let context = PluginContext {
         run_scope,
         ..plugin_context(config, robot)
     };
-    let source = build(&registry.source, config, &context)?.ok_or_else(|| RuntimeError::Plugin {
-        robot,
-        slot: Slot::Source,
-        plugin: "none".into(),
-        source: PluginError::InvalidInput("a source is required".into()),
-    })?;
+    let source: Box<dyn Source> = match &feed {
+        Some(_) => Box::new(DetachedSource),
+        None => build(&registry.source, config, &context)?.ok_or_else(|| RuntimeError::Plugin {
+            robot,
+            slot: Slot::Source,
+            plugin: "none".into(),
+            source: PluginError::InvalidInput("a source is required".into()),
+        })?,
+    };
     let context = context.after_source(source.as_ref());
+    let odometry = match &feed {
+        Some(_) => None,
+        None => build(&registry.odometry, config, &context)?,
+    };
     let plugins = Plugins {
         source,
-        odometry: build(&registry.odometry, config, &context)?,
+        odometry,
         descriptor: build(&registry.descriptor, config, &context)?,
         coarse: build(&registry.coarse, config, &context)?,
         fine: build(&registry.fine, config, &context)?,
@@ -108,14 +130,28 @@ pub(crate) fn build_host(
         transport: build(&registry.transport, config, &context)?,
     };
     let protocol = ProtocolEndpoint::new(robot, session, ProtocolConfig::default());
-    Ok(RobotHost::new(robot, plugins, protocol, clock))
+    let mut host = RobotHost::new(robot, plugins, protocol, clock);
+    host.feed = feed;
+    Ok(host)
 }
 
 impl Fleet {
     /// Builds every robot's plugins. `threads` is the whole host's budget; in lockstep every robot may
     /// use all of it, since only one robot runs at a time.
     pub fn build(config: ResolvedConfig, registry: &Registry) -> Result<Self, RuntimeError> {
+        Self::build_fed(config, registry, Vec::new())
+    }
+
+    /// Builds the fleet with the first robots' front-ends replaced by `feeds`, one per robot in order
+    /// (a replay of recorded keyframes, such as a saved session's): those robots have no source or
+    /// odometry and take what their feed gives. Robots past the feeds' end are built as usual.
+    pub fn build_fed(
+        config: ResolvedConfig,
+        registry: &Registry,
+        feeds: Vec<Box<dyn FrontEndFeed>>,
+    ) -> Result<Self, RuntimeError> {
         let run_scope = new_run_scope();
+        let mut feeds = feeds.into_iter();
         let prior = crate::prior::load_prior(&config)?;
         let mut robots = Vec::new();
         for index in 0..config.run.robots {
@@ -123,13 +159,14 @@ impl Fleet {
             let session = (config.run.seed as u32)
                 .wrapping_mul(2_654_435_761)
                 .wrapping_add(index);
-            robots.push(build_host(
+            robots.push(build_host_fed(
                 &config,
                 registry,
                 RobotId(index),
                 session,
                 HostClock::scan_time(),
                 Some(run_scope.clone()),
+                feeds.next(),
             )?);
             if let (Some(prior), Some(host)) = (&prior, robots.last_mut()) {
                 host.take_prior(prior, &config.slot(Slot::Descriptor).plugin)?;

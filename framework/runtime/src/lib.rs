@@ -54,6 +54,7 @@ pub use map_clouds::{MAP_VOXEL_M, merged_map};
 pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};
 pub use observer::{HostObserver, Observers};
 pub use outputs::{write_outputs, write_partial_outputs};
+pub use prior::{PRIOR_ROBOT_BASE, is_prior_robot};
 pub use process::{CRASH_AFTER_VAR, ProcessFeed, STAGE_EXE_VAR, exit_when_host_exits, run_front_end_stage};
 pub use run_folder::abandon_run;
 pub use single::{SingleRobot, SingleRobotError};

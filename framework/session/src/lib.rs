@@ -39,6 +39,7 @@ mod info;
 mod join;
 mod manifest;
 mod model;
+mod place;
 mod read;
 mod write;
 
@@ -47,6 +48,7 @@ pub use error::SessionError;
 pub use info::{RobotInfo, SessionInfo};
 pub use join::{JoinPart, Joined, PartClouds, write_joined};
 pub use model::{DescriptorSpec, Session, SessionKeyframe, SessionRobot};
+pub use place::{AGREE_DEG, AGREE_M, RobotStanding, SessionPlacement, place_session, weighted_mean};
 pub use read::{read_keyframe_cloud, read_session};
 pub use write::write_session;
 

@@ -1,10 +1,15 @@
 //! `skid session info PATH`: what a saved session holds — its robots, keyframes, points, paths, loops,
 //! which robots are placed in the session's map frame, its descriptor and its size on disk. PATH is a
 //! session folder or a run folder holding one (`runs/<name>/session`).
+//!
+//! `skid session merge A B … --out C`: the sessions placed in A's map frame and written as one
+//! (`skid_merge`), with a table of what was placed and how well.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use skid_core::Registry;
+use skid_merge::{MergeRequest, merge_sessions};
 use skid_session::{SessionInfo, read_session};
 
 use crate::commands::table::Table;
@@ -58,5 +63,67 @@ pub fn info(path: &Path, json: bool) -> Result<()> {
         ]);
     }
     print!("{}", table.render());
+    Ok(())
+}
+
+fn figure(value: Option<f64>, digits: usize) -> String {
+    value.map_or_else(|| "-".to_owned(), |v| format!("{v:.digits$}"))
+}
+
+/// `skid session merge A B … --out C [--set KEY=VALUE]… [--json]`.
+pub fn merge(
+    registry: &Registry,
+    sessions: Vec<PathBuf>,
+    out: PathBuf,
+    sets: Vec<String>,
+    json: bool,
+) -> Result<()> {
+    for path in &sessions {
+        if !path.exists() {
+            anyhow::bail!("{}: no such session folder", path.display());
+        }
+    }
+    let request = MergeRequest { sessions, out, sets };
+    let report = merge_sessions(&request, registry)?;
+    if json {
+        println!("{}", serde_json::to_string(&report)?);
+        return Ok(());
+    }
+    println!("base:   {}", report.base);
+    let mut table = Table::new(&[
+        "session",
+        "keyframes",
+        "robots localised",
+        "loops",
+        "placed",
+        "error m",
+        "error deg",
+        "time s",
+    ]);
+    for session in &report.sessions {
+        let localised = session.robots.iter().filter(|r| r.localised).count();
+        table.row(vec![
+            session.name.clone(),
+            session.keyframes.to_string(),
+            format!("{localised} of {}", session.robots.len()),
+            session.robots.iter().map(|r| r.loops).sum::<usize>().to_string(),
+            if session.placed { "yes".into() } else { "no".into() },
+            figure(session.error_m, 3),
+            figure(session.error_deg, 2),
+            format!("{:.1}", session.localise_s),
+        ]);
+    }
+    print!("{}", table.render());
+    for session in report.sessions.iter().filter(|s| !s.placed) {
+        println!(
+            "not placed: {} ({})",
+            session.name,
+            session.reason.as_deref().unwrap_or("-")
+        );
+    }
+    println!(
+        "merged: {} ({} robots, {} keyframes, map.ply {} points) in {:.1} s",
+        report.out, report.robots, report.keyframes, report.map_points, report.wall_s
+    );
     Ok(())
 }

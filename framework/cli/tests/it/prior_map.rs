@@ -1,7 +1,7 @@
 //! A robot localises in the prior map an earlier run left (`[prior]`), with another LiDAR than the one
 //! that mapped it, and a robot whose route the prior does not hold stays "not localised", as does one
 //! whose start hint points elsewhere; a prior whose descriptors were made with other parameters is
-//! refused, naming the key.
+//! refused, naming the key. The second run's session merges into the first one's map.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -58,6 +58,53 @@ fn a_robot_localises_in_a_prior_map_and_a_robot_outside_it_does_not() {
     // Robot 1 drives a sector 80 m away that the prior does not hold.
     let off_map = &summary["robots"][1]["localisation"];
     assert_eq!(off_map["localised"], false, "{off_map}");
+
+    // The second run's session merged into the map: its robot 0 is placed in the map's frame by its
+    // own loops, within 0.5 m and 1° of the truth; its robot 1, on the unmapped sector, is reported
+    // and kept unplaced.
+    let merged_dir = out.path().join("merged");
+    let merge = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .current_dir(repo())
+        .env_remove("RUST_LOG")
+        .args(["-q", "session", "merge", "--json", "--out"])
+        .arg(&merged_dir)
+        .arg(out.path().join("mapped"))
+        .arg(out.path().join("localise"))
+        .output()
+        .unwrap();
+    assert!(merge.status.success(), "{}", text(&merge.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&merge.stdout).unwrap();
+    let placed = &report["sessions"][0];
+    assert_eq!(placed["placed"], true, "{report}");
+    assert!(
+        placed["error_m"].as_f64().unwrap() < 0.5 && placed["error_deg"].as_f64().unwrap() < 1.0,
+        "{report}"
+    );
+    assert_eq!(placed["robots"][0]["merged_robot"], 2, "{report}");
+    assert_eq!(placed["robots"][1]["placed"], false, "{report}");
+    let info = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .args(["session", "info", "--json"])
+        .arg(&merged_dir)
+        .output()
+        .unwrap();
+    let info: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let placed: Vec<bool> = info["robots"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|robot| robot["placed"].as_bool().unwrap())
+        .collect();
+    assert_eq!(placed, [true, false, true, false], "{info}");
+    assert!(merged_dir.join("map.ply").exists());
+    // A merge never writes over a folder that holds something.
+    let again = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .args(["session", "merge", "--out"])
+        .arg(&merged_dir)
+        .arg(out.path().join("mapped"))
+        .arg(out.path().join("localise"))
+        .output()
+        .unwrap();
+    assert!(!again.status.success() && text(&again.stderr).contains("not empty"));
 
     // A hint that puts robot 0 300 m from where it starts keeps every candidate out of reach.
     let misled = skid_run(
