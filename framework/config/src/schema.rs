@@ -367,9 +367,15 @@ pub enum PriorMode {
     /// The prior is a map the robots place themselves in; it does not change.
     #[default]
     Localise,
+    /// The robots localise in the prior as under `localise` and run full SLAM beside it (loops within
+    /// each robot and between robots, as `own_loops = true`), and the run's session is the prior grown
+    /// by them: the prior's robots as they were, then this run's robots, each placed in the prior's map
+    /// frame where its localisation (or its fleet's) put it, or kept unplaced.
+    Extend,
 }
 
-/// `[prior]`: a session an earlier run left, that this run's robots localise in.
+/// `[prior]`: a session an earlier run left, that this run's robots localise in (and, under `extend`,
+/// grow).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PriorSection {

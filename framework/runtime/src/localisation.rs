@@ -4,7 +4,6 @@
 //! ground truth, how far that placement is from the truth along the robot's keyframes since the fix
 //! (median position and rotation error: the measure a false fix, more than 2 m or 5°, is judged by).
 
-use nalgebra::Vector3;
 use serde::Serialize;
 use skid_core::Pose;
 
@@ -46,20 +45,19 @@ fn median(mut values: Vec<f64>) -> Option<f64> {
     values.get(values.len() / 2).copied()
 }
 
-/// Where the prior's map frame sits in the world of its ground truth (SE(3) Umeyama over its keyframes).
+/// Where the prior's map frame sits in the world of its ground truth: the mean over its keyframes of
+/// what each one's true and estimated poses say (full poses, so that a prior along one straight road
+/// still fixes its roll, which positions alone would leave free).
 fn world_from_prior(prior: &PriorMap) -> Option<Pose> {
-    let (session, world): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = prior
+    let estimates: Vec<(Pose, usize)> = prior
         .keyframes
         .iter()
-        .filter_map(|k| {
-            Some((
-                k.session_from_sensor.translation.vector,
-                k.ground_truth?.translation.vector,
-            ))
-        })
-        .unzip();
-    let fit = skid_eval::umeyama::umeyama(&session, &world, false).ok()?;
-    Some(Pose::from_parts(fit.isometry.translation, fit.isometry.rotation))
+        .filter_map(|k| Some((k.ground_truth? * k.session_from_sensor.inverse(), 1)))
+        .collect();
+    if estimates.len() < 3 {
+        return None;
+    }
+    skid_session::weighted_mean(&estimates)
 }
 
 /// The robot's standing in `prior`.

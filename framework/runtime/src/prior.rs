@@ -13,7 +13,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use skid_config::ResolvedConfig;
+use skid_config::{PriorMode, ResolvedConfig};
 use skid_core::{Cloud, Information, KeyframeId, Pose, RobotId, Slot};
 
 use crate::error::RuntimeError;
@@ -27,9 +27,10 @@ pub fn is_prior_robot(robot: RobotId) -> bool {
 }
 
 /// Whether robots close loops within themselves and with the fleet: always without a prior, and with
-/// one only when `[prior] own_loops` asks for full SLAM beside the localisation.
+/// one when `[prior] own_loops` asks for full SLAM beside the localisation or `mode = "extend"` grows
+/// the prior by the run's own map.
 pub(crate) fn closes_own_loops(config: &ResolvedConfig) -> bool {
-    config.prior.path.is_none() || config.prior.own_loops
+    config.prior.path.is_none() || config.prior.own_loops || config.prior.mode == PriorMode::Extend
 }
 
 /// The descriptor plugin's complete parameters as a session stores them (and as a prior's are compared

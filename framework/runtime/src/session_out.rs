@@ -4,12 +4,17 @@
 
 use std::path::Path;
 
+use skid_config::PriorMode;
 use skid_core::Pose;
-use skid_session::{DescriptorSpec, Session, SessionKeyframe, SessionRobot};
+use skid_session::{
+    DescriptorSpec, JoinPart, PartClouds, RobotStanding, Session, SessionKeyframe, SessionPlacement,
+    SessionRobot, place_session,
+};
 
 use crate::error::{RuntimeError, output_error};
 use crate::fleet::Fleet;
 use crate::host::RobotHost;
+use crate::prior::PRIOR_ROBOT_BASE;
 
 fn robot_session(robot: &RobotHost, map_from_robot: Option<Pose>) -> SessionRobot {
     let descriptors = robot.own_descriptors();
@@ -74,7 +79,60 @@ fn fleet_session(fleet: &Fleet, frames: &[Option<Pose>]) -> Result<Session, Runt
     })
 }
 
-/// Writes the fleet's session into `<folder>/session/`.
+/// Keyframe `index`'s cloud of robot `robot`, in its sensor frame.
+fn cloud_of(fleet: &Fleet, robot: u32, index: u32) -> Option<&[skid_core::Point]> {
+    let host = fleet.robots.iter().find(|host| host.robot().0 == robot)?;
+    host.keyframes().get(&index).map(|k| k.cloud.points.as_slice())
+}
+
+/// The run's session joined to the prior it extends (`[prior] mode = "extend"`): the prior's robots as
+/// they were, then the run's, placed in the prior's map frame where their localisations agree
+/// (`skid_session::place_session`, as a merge places a session), or kept unplaced.
+fn write_extended(dir: &Path, fleet: &Fleet, session: &Session, prior: &Path) -> Result<(), RuntimeError> {
+    let prior_dir = skid_session::session_folder(prior);
+    let prior_session = skid_session::read_session(&prior_dir).map_err(|e| output_error(&prior_dir, e))?;
+    let standings: Vec<RobotStanding> = fleet
+        .robots
+        .iter()
+        .zip(&session.robots)
+        .map(|(host, robot)| RobotStanding {
+            session_from_robot: robot.map_from_robot,
+            base_from_robot: host.localisation().map(|placed| placed.prior_from_map),
+            loops: host.localisation().map_or(0, |placed| placed.loops),
+        })
+        .collect();
+    let placements = match place_session(&standings) {
+        SessionPlacement::Placed { robots, .. } => robots,
+        SessionPlacement::NotPlaced { reason } => {
+            tracing::warn!(%reason, "the run's robots are not placed in the prior they extend; kept unplaced");
+            vec![None; session.robots.len()]
+        }
+    };
+    let parts = [
+        JoinPart {
+            session: &prior_session,
+            placements: prior_session.robots.iter().map(|r| r.map_from_robot).collect(),
+            clouds: PartClouds::Folder(&prior_dir),
+            graph_ids: Default::default(),
+        },
+        JoinPart {
+            session,
+            placements,
+            clouds: PartClouds::Memory(&|robot, index| cloud_of(fleet, robot, index).map(<[_]>::to_vec)),
+            // The run's graphs name the prior's keyframes as robots `PRIOR_ROBOT_BASE + i`.
+            graph_ids: prior_session
+                .robots
+                .iter()
+                .map(|robot| (PRIOR_ROBOT_BASE + robot.robot, robot.robot))
+                .collect(),
+        },
+    ];
+    skid_session::write_joined(dir, &session.name, &parts).map_err(|e| output_error(dir, e))?;
+    Ok(())
+}
+
+/// Writes the fleet's session into `<folder>/session/`; a run extending its prior writes the prior grown
+/// by the run.
 pub(crate) fn write_session(
     folder: &Path,
     fleet: &Fleet,
@@ -82,9 +140,11 @@ pub(crate) fn write_session(
 ) -> Result<(), RuntimeError> {
     let session = fleet_session(fleet, frames)?;
     let dir = folder.join("session");
-    skid_session::write_session(&dir, &session, |robot, index| {
-        let host = fleet.robots.iter().find(|host| host.robot().0 == robot)?;
-        host.keyframes().get(&index).map(|k| k.cloud.points.as_slice())
-    })
-    .map_err(|e| output_error(&dir, e))
+    match &fleet.config.prior.path {
+        Some(prior) if fleet.config.prior.mode == PriorMode::Extend => {
+            write_extended(&dir, fleet, &session, prior)
+        }
+        _ => skid_session::write_session(&dir, &session, |robot, index| cloud_of(fleet, robot, index))
+            .map_err(|e| output_error(&dir, e)),
+    }
 }

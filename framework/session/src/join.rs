@@ -21,8 +21,9 @@ use crate::{DescriptorSpec, Session, SessionError, SessionKeyframe, SessionRobot
 pub enum PartClouds<'a> {
     /// The session's folder on disk: each cloud file is copied as it is.
     Folder(&'a Path),
-    /// Clouds in memory, by robot id and keyframe index (a keyframe without one is written empty).
-    Memory(&'a dyn Fn(u32, u32) -> Option<&'a [Point]>),
+    /// Clouds in memory, by robot id and keyframe index (a keyframe without one is written empty), each
+    /// handed over as a copy for the time its file is written.
+    Memory(&'a dyn Fn(u32, u32) -> Option<Vec<Point>>),
 }
 
 /// One session of a join.
@@ -164,7 +165,7 @@ pub fn write_joined(dir: &Path, name: &str, parts: &[JoinPart<'_>]) -> Result<Jo
                 }
                 PartClouds::Memory(cloud_of) => {
                     let points = cloud_of(robot.robot, keyframe.index).unwrap_or_default();
-                    write_ply(path, points, PlyFormat::BinaryLittleEndian)?;
+                    write_ply(path, &points, PlyFormat::BinaryLittleEndian)?;
                     Ok(points.len())
                 }
             };

@@ -246,12 +246,7 @@ fn joined_sessions_keep_every_robot_renumbered_and_placed_where_the_caller_says(
     let joined_dir = out.path().join("joined");
     let moved = pose(10.0, -3.0, 0.7);
     let (_, b_clouds) = example();
-    let b_cloud_of = |robot: u32, index: u32| {
-        b_clouds
-            .get(robot as usize)?
-            .get(index as usize)
-            .map(Vec::as_slice)
-    };
+    let b_cloud_of = |robot: u32, index: u32| b_clouds.get(robot as usize)?.get(index as usize).cloned();
     let parts = [
         skid_session::JoinPart {
             session: &a,

@@ -1,7 +1,8 @@
 //! A robot localises in the prior map an earlier run left (`[prior]`), with another LiDAR than the one
 //! that mapped it, and a robot whose route the prior does not hold stays "not localised", as does one
 //! whose start hint points elsewhere; a prior whose descriptors were made with other parameters is
-//! refused, naming the key. The second run's session merges into the first one's map.
+//! refused, naming the key. The second run's session merges into the first one's map, and a run that
+//! extends the map leaves it grown.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -96,6 +97,35 @@ fn a_robot_localises_in_a_prior_map_and_a_robot_outside_it_does_not() {
         .collect();
     assert_eq!(placed, [true, false, true, false], "{info}");
     assert!(merged_dir.join("map.ply").exists());
+    // Extending the map: robot 0 localises as before and runs full SLAM beside; the run's session is
+    // the prior grown by it, its loops with the prior's robot 0 kept in its graph under that robot's id.
+    let extend = skid_run(
+        out.path(),
+        "extend",
+        &[
+            &prior,
+            "prior.mode=extend",
+            "source.sim.sensor=os1-32",
+            "run.robots=1",
+        ],
+    );
+    assert!(extend.status.success(), "{}", text(&extend.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&extend.stdout).unwrap();
+    assert_eq!(
+        summary["robots"][0]["localisation"]["localised"], true,
+        "{summary}"
+    );
+    let info = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .args(["session", "info", "--json"])
+        .arg(out.path().join("extend"))
+        .output()
+        .unwrap();
+    let info: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let robots = info["robots"].as_array().unwrap();
+    let placed: Vec<bool> = robots.iter().map(|r| r["placed"].as_bool().unwrap()).collect();
+    assert_eq!(placed, [true, false, true], "{info}");
+    assert_eq!(robots[2]["peers_in_graph"], serde_json::json!([0]), "{info}");
+
     // A merge never writes over a folder that holds something.
     let again = Command::new(env!("CARGO_BIN_EXE_skid"))
         .args(["session", "merge", "--out"])
