@@ -24,6 +24,7 @@ pub mod relocalise;
 pub mod report;
 pub mod scale;
 pub mod scale_report;
+pub mod session_merge;
 pub mod slam;
 pub mod stats;
 pub mod usage;

@@ -50,6 +50,12 @@ pub struct RelocaliseSettings {
     /// Drive the mapping mission again (with the trials' sensor and season) with the prior and without
     /// it, for what localising costs beside full SLAM on the same routes.
     pub mission_comparison: bool,
+    /// Sessions of the mapping mission on other days (the trials' sensor and season, route seeds 1, 2,
+    /// …: other noise), each merged with the map.
+    pub merge_other_days: usize,
+    /// Sessions of one robot wandering (`trial_max_scans`) from junctions far from the map, each merged
+    /// with the map: none may be placed.
+    pub merge_far_sessions: usize,
 }
 
 impl Default for RelocaliseSettings {
@@ -71,6 +77,8 @@ impl Default for RelocaliseSettings {
             fleet_trials: 4,
             fleet_robots: 3,
             mission_comparison: true,
+            merge_other_days: 3,
+            merge_far_sessions: 3,
         }
     }
 }
@@ -125,7 +133,7 @@ pub struct FleetRow {
 }
 
 /// Ground-truth positions (x, y) of the map's keyframes.
-fn mapped_positions(session_dir: &Path) -> Result<Vec<[f64; 2]>> {
+pub(crate) fn mapped_positions(session_dir: &Path) -> Result<Vec<[f64; 2]>> {
     let session = skid_session::read_session(session_dir)?;
     Ok(session
         .robots
@@ -144,7 +152,7 @@ fn distance_to(mapped: &[[f64; 2]], x: f64, y: f64) -> f64 {
 }
 
 /// Junctions the map passed within 5 m of, and junctions farther than `off_m` from all of it.
-fn start_junctions(world: &World, mapped: &[[f64; 2]], off_m: f64) -> (Vec<usize>, Vec<usize>) {
+pub(crate) fn start_junctions(world: &World, mapped: &[[f64; 2]], off_m: f64) -> (Vec<usize>, Vec<usize>) {
     let nodes = &world.graph().nodes;
     let on: Vec<usize> = (0..nodes.len())
         .filter(|&j| distance_to(mapped, nodes[j][0], nodes[j][1]) < 5.0)
@@ -502,12 +510,12 @@ pub fn fleet_markdown(rows: &[FleetRow]) -> String {
     )
 }
 
-fn median(mut values: Vec<f64>) -> Option<f64> {
+pub(crate) fn median(mut values: Vec<f64>) -> Option<f64> {
     values.sort_by(f64::total_cmp);
     values.get(values.len() / 2).copied()
 }
 
-fn figure(value: Option<f64>, digits: usize) -> String {
+pub(crate) fn figure(value: Option<f64>, digits: usize) -> String {
     value.map_or("–".to_owned(), |v| format!("{v:.digits$}"))
 }
 

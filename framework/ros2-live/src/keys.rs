@@ -22,15 +22,17 @@ pub enum Ros2Type {
     PointCloud2,
     MarkerArray,
     TfMessage,
+    String,
 }
 
 impl Ros2Type {
-    pub const ALL: [Ros2Type; 5] = [
+    pub const ALL: [Ros2Type; 6] = [
         Ros2Type::Odometry,
         Ros2Type::Path,
         Ros2Type::PointCloud2,
         Ros2Type::MarkerArray,
         Ros2Type::TfMessage,
+        Ros2Type::String,
     ];
 
     /// The type's name, `pkg/msg/Type`.
@@ -41,6 +43,7 @@ impl Ros2Type {
             Ros2Type::PointCloud2 => "sensor_msgs/msg/PointCloud2",
             Ros2Type::MarkerArray => "visualization_msgs/msg/MarkerArray",
             Ros2Type::TfMessage => "tf2_msgs/msg/TFMessage",
+            Ros2Type::String => "std_msgs/msg/String",
         }
     }
 
@@ -56,6 +59,7 @@ impl Ros2Type {
                 "RIHS01_86cb8800b6fb05b5eff1abd7a56f62a5641d3ae9a1c29e78e67e704f1d067dcf"
             }
             Ros2Type::TfMessage => "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087",
+            Ros2Type::String => "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18",
         }
     }
 

@@ -38,6 +38,8 @@ pub struct LiveSettings {
     pub map_every: u32,
     /// Voxel edge of the published map, metres.
     pub voxel_m: f64,
+    /// The robots localise in a prior map (`[prior]`): publish their standing in it.
+    pub prior: bool,
 }
 
 /// One zenoh session shared by every robot of the process, and the entity ids rmw_zenoh numbers its

@@ -9,6 +9,10 @@
 //! | `/robot<i>/path` | `nav_msgs/Path` | after every optimisation: the optimised trajectory, in `robot<i>/map` |
 //! | `/robot<i>/loops` | `visualization_msgs/MarkerArray` | after every optimisation: the robot's loops by standing, and each peer's keyframes as the robot's graph places them |
 //! | `/robot<i>/map` | `sensor_msgs/PointCloud2` | every `map_every` optimisations and at the end: the keyframe clouds at their optimised poses, thinned |
+//! | `/robot<i>/localisation` | `std_msgs/String` | with a prior map (`[prior]`), at the first scan and whenever it changes: the robot's standing in the prior as JSON (`localised`, `through_session_robot`, `via_robot`, `loops`) |
+//!
+//! Once a robot is localised in a prior map, every scan's `/tf` also places its `robot<i>/map` in
+//! `prior/map`, where its loops with the prior put it.
 //!
 //! Odometry and transforms are dropped when the network falls behind (a viewer must never stall a
 //! robot); paths, loops and maps, rarer and each complete in itself, are sent reliably.
@@ -18,7 +22,7 @@ use skid_bag::write::encode;
 use skid_bag::write::viz::{self, FrameTransform, LineListMarker};
 use skid_core::pose::pose_to_wire;
 use skid_core::{KeyframeId, Pose, RawPoint, RobotId};
-use skid_runtime::{HostObserver, LOOP_CLASSES, RobotHost, own_frame_loops};
+use skid_runtime::{HostObserver, LOOP_CLASSES, PRIOR_ROBOT_BASE, RobotHost, own_frame_loops};
 use zenoh::Wait;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Publisher;
@@ -26,6 +30,9 @@ use zenoh::qos::CongestionControl;
 
 use crate::keys::{Ros2Type, attachment, data_key, publisher_token};
 use crate::{LiveError, LiveSettings, SharedSession};
+
+/// The prior map's frame, as the run record names it.
+const PRIOR_MAP_FRAME: &str = "prior/map";
 
 /// One topic: its zenoh publisher, its liveliness token and what its attachments carry.
 struct Topic {
@@ -63,6 +70,9 @@ pub struct Ros2Live {
     path: Topic,
     loops: Topic,
     map: Topic,
+    localisation: Topic,
+    /// The standing last published on `localisation`.
+    last_standing: Option<String>,
     /// The latest correction `map → odom` (identity until the first optimisation).
     map_from_odom: Pose,
     optimizations_seen: u32,
@@ -127,6 +137,8 @@ impl Ros2Live {
             path: topic(format!("{namespace}/path"), Ros2Type::Path, true)?,
             loops: topic(format!("{namespace}/loops"), Ros2Type::MarkerArray, true)?,
             map: topic(format!("{namespace}/map"), Ros2Type::PointCloud2, true)?,
+            localisation: topic(format!("{namespace}/localisation"), Ros2Type::String, true)?,
+            last_standing: None,
             frames: [
                 format!("{name}/map"),
                 format!("{name}/odom"),
@@ -147,6 +159,26 @@ impl Ros2Live {
             index,
         };
         Some(host.keyframe_pose(index)? * host.chains().pose(id)?.inverse())
+    }
+
+    /// Publishes the robot's standing in the prior map when it has changed (a run with a prior only).
+    fn publish_standing(&mut self, host: &RobotHost) {
+        if !self.settings.prior {
+            return;
+        }
+        let placed = host.localisation();
+        let standing = serde_json::json!({
+            "robot": self.robot.0,
+            "localised": placed.is_some(),
+            "through_session_robot": placed.as_ref().map(|p| p.through.0.saturating_sub(PRIOR_ROBOT_BASE)),
+            "via_robot": placed.as_ref().and_then(|p| p.via).map(|robot| robot.0),
+            "loops": placed.as_ref().map_or(0, |p| p.loops),
+        })
+        .to_string();
+        if self.last_standing.as_deref() != Some(standing.as_str()) {
+            self.localisation.put(encode::string(Encoding::Cdr, &standing));
+            self.last_standing = Some(standing);
+        }
     }
 
     fn publish_map(&mut self, host: &RobotHost, stamp_nanos: u64) {
@@ -220,7 +252,7 @@ impl HostObserver for Ros2Live {
             pose.rotation_xyzw,
         );
         self.odometry.put(message);
-        let transforms = [
+        let mut transforms = vec![
             FrameTransform {
                 stamp_nanos: scan.stamp_nanos,
                 parent: self.frames[1].clone(),
@@ -234,7 +266,16 @@ impl HostObserver for Ros2Live {
                 parent_from_child: pose_to_wire(&self.map_from_odom),
             },
         ];
+        if let Some(placed) = host.localisation() {
+            transforms.push(FrameTransform {
+                stamp_nanos: scan.stamp_nanos,
+                parent: PRIOR_MAP_FRAME.to_owned(),
+                child: self.frames[0].clone(),
+                parent_from_child: pose_to_wire(&placed.prior_from_map),
+            });
+        }
         self.tf.put(viz::tf_message(&transforms));
+        self.publish_standing(host);
     }
 
     fn optimized(&mut self, host: &RobotHost) {

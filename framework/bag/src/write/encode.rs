@@ -212,6 +212,13 @@ pub fn odometry(
     writer.into_bytes()
 }
 
+/// A `std_msgs/String` message.
+pub fn string(encoding: Encoding, text: &str) -> Vec<u8> {
+    let mut writer = WireWriter::new(encoding, text.len() + 16);
+    writer.string(text);
+    writer.into_bytes()
+}
+
 /// `visualization_msgs/Marker` as ROS 2 Jazzy defines it.
 pub(crate) const MARKER: &str = "int32 ARROW=0\nint32 CUBE=1\nint32 SPHERE=2\nint32 CYLINDER=3\n\
 int32 LINE_STRIP=4\nint32 LINE_LIST=5\nint32 CUBE_LIST=6\nint32 SPHERE_LIST=7\nint32 POINTS=8\n\

@@ -1,5 +1,6 @@
 //! `cargo xtask bench relocalise`: a robot placing itself in a prior map, from starts on and off the
-//! mapped routes, with another sensor and another season. Parameters in `configs/bench/relocalise.toml`;
+//! mapped routes, with another sensor and another season; and sessions of other days and of far places
+//! merged with the map. Parameters in `configs/bench/relocalise.toml`;
 //! the method is `skid_bench::relocalise`'s. Run outputs go to `runs/` under the output folder.
 
 use anyhow::Context;
@@ -7,6 +8,7 @@ use skid_bench::relocalise::{
     RelocaliseSettings, fleet_markdown, map_world, mission_markdown, relocalise_markdown, run_fleet_trials,
     run_mission_comparison, run_trials,
 };
+use skid_bench::session_merge::{merge_markdown, run_merges};
 
 fn main() -> anyhow::Result<()> {
     skid_bench::run_profile("relocalise", |settings: &RelocaliseSettings, report, out| {
@@ -62,11 +64,28 @@ fn main() -> anyhow::Result<()> {
             );
             report.push(row)?;
         }
+        let merges = run_merges(settings, &session, &registry, out, |row| {
+            eprintln!(
+                "merge {} ({}): placed {}, {} of {} robots localised, {} loops, error {:?} m {:?}°{}, {:.1} s",
+                row.session,
+                row.kind,
+                row.placed,
+                row.robots_localised,
+                row.robots,
+                row.loops,
+                row.error_m,
+                row.error_deg,
+                if row.false_merge { " FALSE MERGE" } else { "" },
+                row.merge_s
+            );
+            report.push(row)
+        })?;
         Ok(format!(
-            "{}\n{}\n{}",
+            "{}\n{}\n{}\n{}",
             relocalise_markdown(settings, &rows),
             fleet_markdown(&fleet),
-            mission_markdown(&mission)
+            mission_markdown(&mission),
+            merge_markdown(&merges)
         ))
     })
 }

@@ -72,6 +72,7 @@ fn live_ros2(fleet: &mut skid_runtime::Fleet) -> Result<Option<skid_ros2_live::S
         domain_id: output.ros2_domain_id,
         map_every: output.ros2_map_every,
         voxel_m: output.ros2_voxel_m,
+        prior: fleet.config.prior.path.is_some(),
     };
     Ok(Some(skid_ros2_live::attach(fleet, &settings)?))
 }

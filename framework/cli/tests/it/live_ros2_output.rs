@@ -2,8 +2,9 @@
 //! robot's odometry, `/tf`, optimised path, map and loops on zenoh with rmw_zenoh's keys, and an
 //! independent listener (`tests/fixtures/listen_ros2.py`: eclipse-zenoh, and rosbags' ROS 2 Jazzy type
 //! store to decode the CDR, with `$SKID_PYTHON`) receives and decodes them: the types and their hashes,
-//! the attachments, the frames, the path of every scan, a map and the loop markers, and the liveliness
-//! tokens that put the node and its publishers in the ROS graph.
+//! the attachments, the frames, the path of every scan, a map and the loop markers, a robot's place in
+//! the prior map it localises in and its standing there, and the liveliness tokens that put the node
+//! and its publishers in the ROS graph.
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
@@ -41,9 +42,35 @@ fn an_independent_listener_decodes_every_robots_live_topics() {
         "the listener (SKID_PYTHON needs eclipse-zenoh and rosbags) did not start"
     );
 
+    // The same snippet mapped first: the live run localises in it (beside its own SLAM) and publishes
+    // where each robot's map sits in the prior's.
+    let mapped = Command::new(env!("CARGO_BIN_EXE_skid"))
+        .current_dir(repo())
+        .env_remove("RUST_LOG")
+        .args(["-q", "run"])
+        .args(["--set", "run.robots=2", "--set", "run.name=mapped"])
+        .arg("--set")
+        .arg(format!("run.output_dir={}", out.path().display()))
+        .args([
+            "--set",
+            "source.plugin=kitti",
+            "--set",
+            "source.kitti.split.enabled=true",
+        ])
+        .args(["--set", "coarse.plugin=none", "--set", "output.record=false"])
+        .output()
+        .unwrap();
+    assert!(
+        mapped.status.success(),
+        "{}",
+        String::from_utf8_lossy(&mapped.stderr)
+    );
+
     let sets = [
         "run.robots=2".to_owned(),
         "run.name=live".to_owned(),
+        format!("prior.path={}", out.path().join("mapped").display()),
+        "prior.own_loops=true".to_owned(),
         format!("run.output_dir={}", out.path().display()),
         "source.plugin=kitti".to_owned(),
         "source.kitti.split.enabled=true".to_owned(),
@@ -132,6 +159,18 @@ fn an_independent_listener_decodes_every_robots_live_topics() {
     assert!(
         pairs.contains("odom") && pairs.contains("base_link") && pairs.contains("/map"),
         "{pairs}"
+    );
+    // Robot 0 is localised in the prior: `/tf` places its map in `prior/map`, and its standing says so.
+    let all_pairs = tf["all_pairs"].to_string();
+    assert!(all_pairs.contains(r#"["prior/map","robot0/map"]"#), "{all_pairs}");
+    let standing = &topics["/robot0/localisation"];
+    assert_eq!(standing["type"], "std_msgs/msg/String");
+    assert_eq!(standing["hash_ok"], true);
+    let last: serde_json::Value = serde_json::from_str(standing["last"]["data"].as_str().unwrap()).unwrap();
+    assert_eq!(last["localised"], true, "{last}");
+    assert_eq!(
+        summary["robots"][0]["localisation"]["localised"], true,
+        "{summary}"
     );
 
     // The ROS graph: a node per robot and a publisher token per topic, as rmw_zenoh writes them.
