@@ -106,7 +106,7 @@ fn localise(
             base_from_robot: placed.map(|p| p.prior_from_map),
             loops: placed.map_or(0, |p| p.loops),
         });
-        through.push(placed.map(|p| p.through.0.saturating_sub(skid_runtime::PRIOR_ROBOT_BASE)));
+        through.push(placed.and_then(|p| p.session_robot));
     }
     skid_runtime::abandon_run(&fleet.config, "a merge's localisation, not a run");
     Ok(Localised {
@@ -199,13 +199,13 @@ fn merge_in(
                         session: &current,
                         placements: current.robots.iter().map(|r| r.map_from_robot).collect(),
                         clouds: PartClouds::Folder(&current_dir),
-                        graph_ids: Default::default(),
+                        foreign_vertices: Default::default(),
                     },
                     JoinPart {
                         session: &session,
                         placements: robots.clone(),
                         clouds: PartClouds::Folder(&dir),
-                        graph_ids: Default::default(),
+                        foreign_vertices: Default::default(),
                     },
                 ];
                 let name = format!("{}+{}", current.name, session.name);
@@ -252,7 +252,7 @@ fn finish(
         session: current,
         placements: current.robots.iter().map(|r| r.map_from_robot).collect(),
         clouds: PartClouds::Folder(current_dir),
-        graph_ids: Default::default(),
+        foreign_vertices: Default::default(),
     };
     let joined = write_joined(out, &current.name, &[part]).map_err(session_error)?;
     let map =

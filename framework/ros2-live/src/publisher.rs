@@ -22,7 +22,7 @@ use skid_bag::write::encode;
 use skid_bag::write::viz::{self, FrameTransform, LineListMarker};
 use skid_core::pose::pose_to_wire;
 use skid_core::{KeyframeId, Pose, RawPoint, RobotId};
-use skid_runtime::{HostObserver, LOOP_CLASSES, PRIOR_ROBOT_BASE, RobotHost, own_frame_loops};
+use skid_runtime::{HostObserver, LOOP_CLASSES, RobotHost, own_frame_loops};
 use zenoh::Wait;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Publisher;
@@ -170,7 +170,7 @@ impl Ros2Live {
         let standing = serde_json::json!({
             "robot": self.robot.0,
             "localised": placed.is_some(),
-            "through_session_robot": placed.as_ref().map(|p| p.through.0.saturating_sub(PRIOR_ROBOT_BASE)),
+            "through_session_robot": placed.as_ref().and_then(|p| p.session_robot),
             "via_robot": placed.as_ref().and_then(|p| p.via).map(|robot| robot.0),
             "loops": placed.as_ref().map_or(0, |p| p.loops),
         })

@@ -108,6 +108,8 @@ pub struct RobotHost {
     /// When this robot's frames are next sent again after a change.
     frame_repeats: Repeats<()>,
     stage_ms: BTreeMap<&'static str, f64>,
+    /// The session robot that recorded each keyframe of the prior peer, by its index (`[prior]`).
+    prior_session_robots: Vec<u32>,
     /// Set by the executor once the robot's source has ended.
     pub(crate) finished: bool,
     /// Set when the front-end runs on a thread or in another process.
@@ -143,6 +145,7 @@ impl RobotHost {
             announced: Announced::default(),
             frame_repeats: Repeats::default(),
             stage_ms: BTreeMap::new(),
+            prior_session_robots: Vec::new(),
             finished: false,
             feed: None,
         }

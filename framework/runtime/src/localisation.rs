@@ -8,17 +8,17 @@ use serde::Serialize;
 use skid_core::Pose;
 
 use crate::host::RobotHost;
-use crate::prior::{PRIOR_ROBOT_BASE, PriorMap, is_prior_robot};
+use crate::prior::{PriorMap, is_prior_robot};
 
 /// One robot's standing in the prior map.
 #[derive(Clone, Debug, Serialize)]
 pub struct LocalisationSummary {
-    /// True once the verifier granted loops with a prior robot (and still holds them at the end).
+    /// True once the verifier granted loops with the prior (and still holds them at the end).
     pub localised: bool,
-    /// The prior session's robot whose loops place this robot.
+    /// The prior session's robot that recorded most of the keyframes its loops join.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub through_session_robot: Option<u32>,
-    /// Accepted loops with that prior robot.
+    /// Accepted loops with the prior.
     pub loops: usize,
     /// The fleet robot whose reported frames place this one, when it holds no loop with the prior.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -80,7 +80,7 @@ pub fn summarise(host: &RobotHost, prior: &PriorMap) -> LocalisationSummary {
     });
     let mut summary = LocalisationSummary {
         localised: placed.is_some(),
-        through_session_robot: placed.map(|p| p.through.0 - PRIOR_ROBOT_BASE),
+        through_session_robot: placed.as_ref().and_then(|p| p.session_robot),
         loops: placed.map_or(0, |p| p.loops),
         via_robot: placed.and_then(|p| p.via).map(|robot| robot.0),
         first_fix_s: first_fix_nanos

@@ -1,13 +1,16 @@
 //! A prior map (`[prior]`): a session an earlier run left, in which this run's robots place themselves.
 //!
 //! The prior acts as a silent peer, as relocalisation is the inter-robot loop problem with a peer that
-//! does not move: each robot of the session that was placed in the session's map frame becomes a peer
-//! robot `PRIOR_ROBOT_BASE + i` whose descriptors sit in every host's index, whose keyframe clouds the
-//! hosts hold, and whose "odometry chain" is its keyframes' poses in the session's map frame with a
-//! tight step covariance. Candidates between a robot and the prior go through the same coarse and fine
+//! does not move: the keyframes of every robot of the session that was placed in the session's map
+//! frame become one peer robot, [`PRIOR_ROBOT_BASE`], whose keyframes are numbered on from one session
+//! robot to the next, whose descriptors sit in every host's index, whose keyframe clouds the hosts
+//! hold, and whose "odometry chain" is its keyframes' poses in the session's map frame with a tight
+//! step covariance (the step from one session robot's last keyframe to the next one's first included:
+//! the session placed them in one frame). One peer, not one per session robot, so that loops with
+//! places different session robots mapped are judged together, as the one map they are. Candidates between a robot and the prior go through the same coarse and fine
 //! registration and the same verifier (its earned-merge rules included) as loops between robots; the
-//! robot is localised once the verifier grants a set of loops with a prior robot, and placed by them.
-//! Nothing is ever sent to a prior robot. The session's descriptor must be the run's, parameters and
+//! robot is localised once the verifier grants a set of loops with the prior, and placed by them.
+//! Nothing is ever sent to the prior. The session's descriptor must be the run's, parameters and
 //! all: descriptors of another kind or resolution cannot be compared.
 
 use std::path::Path;
@@ -18,10 +21,11 @@ use skid_core::{Cloud, Information, KeyframeId, Pose, RobotId, Slot};
 
 use crate::error::RuntimeError;
 
-/// Robot ids from this one up stand for the prior's robots (a fleet has at most 16).
+/// The robot id the prior's keyframes take (a fleet has at most 16 robots; ids from this one up are
+/// never a fleet robot's).
 pub const PRIOR_ROBOT_BASE: u32 = 1000;
 
-/// Whether `robot` is one of a prior's robots.
+/// Whether `robot` is the prior peer (or any id at or above its, which no fleet robot takes).
 pub fn is_prior_robot(robot: RobotId) -> bool {
     robot.0 >= PRIOR_ROBOT_BASE
 }
@@ -39,7 +43,7 @@ pub(crate) fn descriptor_params(config: &ResolvedConfig) -> Result<serde_json::V
     serde_json::to_value(config.slot(Slot::Descriptor).params.table())
 }
 
-/// The step covariance of a prior robot's chain: the session's poses are an optimised map, held to
+/// The step covariance of the prior peer's chain: the session's poses are an optimised map, held to
 /// 2 cm and 0.1° between consecutive keyframes.
 pub(crate) fn prior_step_covariance() -> Information {
     let mut covariance = Information::identity();
@@ -52,7 +56,12 @@ pub(crate) fn prior_step_covariance() -> Information {
 
 /// One keyframe of the prior.
 pub struct PriorKeyframe {
+    /// Its id as the prior peer's keyframe (robot [`PRIOR_ROBOT_BASE`], index = its place in
+    /// [`PriorMap::keyframes`]).
     pub id: KeyframeId,
+    /// The session robot that recorded it, and its index there.
+    pub session_robot: u32,
+    pub session_index: u32,
     /// Its pose in the session's map frame.
     pub session_from_sensor: Pose,
     pub descriptor: Vec<f32>,
@@ -66,6 +75,17 @@ pub struct PriorMap {
     pub descriptor_kind: String,
     /// Keyframes of every placed session robot, by robot then index.
     pub keyframes: Vec<PriorKeyframe>,
+}
+
+impl PriorMap {
+    /// The session robot and keyframe index of the prior peer's keyframe `id`.
+    pub fn session_keyframe(&self, id: KeyframeId) -> Option<(u32, u32)> {
+        if id.robot.0 != PRIOR_ROBOT_BASE {
+            return None;
+        }
+        let keyframe = self.keyframes.get(id.index as usize)?;
+        Some((keyframe.session_robot, keyframe.session_index))
+    }
 }
 
 fn prior_error(dir: &Path, message: impl ToString) -> RuntimeError {
@@ -126,8 +146,12 @@ pub fn load_prior(config: &ResolvedConfig) -> Result<Option<Arc<PriorMap>>, Runt
             };
             let points =
                 skid_session::read_keyframe_cloud(&dir, robot, keyframe).map_err(|e| prior_error(&dir, e))?;
+            let running = u32::try_from(keyframes.len())
+                .map_err(|_| prior_error(&dir, "more keyframes than a robot can number"))?;
             keyframes.push(PriorKeyframe {
-                id: KeyframeId::new(PRIOR_ROBOT_BASE + robot.robot, keyframe.index),
+                id: KeyframeId::new(PRIOR_ROBOT_BASE, running),
+                session_robot: robot.robot,
+                session_index: keyframe.index,
                 session_from_sensor: frame * keyframe.map_from_sensor,
                 descriptor: descriptor.clone(),
                 cloud: Arc::new(Cloud::new(points)),

@@ -5,16 +5,16 @@
 use std::path::Path;
 
 use skid_config::PriorMode;
-use skid_core::Pose;
+use skid_core::{KeyframeId, Pose};
 use skid_session::{
     DescriptorSpec, JoinPart, PartClouds, RobotStanding, Session, SessionKeyframe, SessionPlacement,
     SessionRobot, place_session,
 };
 
+use crate::artifacts::g2o_vertex_id;
 use crate::error::{RuntimeError, output_error};
 use crate::fleet::Fleet;
 use crate::host::RobotHost;
-use crate::prior::PRIOR_ROBOT_BASE;
 
 fn robot_session(robot: &RobotHost, map_from_robot: Option<Pose>) -> SessionRobot {
     let descriptors = robot.own_descriptors();
@@ -113,17 +113,23 @@ fn write_extended(dir: &Path, fleet: &Fleet, session: &Session, prior: &Path) ->
             session: &prior_session,
             placements: prior_session.robots.iter().map(|r| r.map_from_robot).collect(),
             clouds: PartClouds::Folder(&prior_dir),
-            graph_ids: Default::default(),
+            foreign_vertices: Default::default(),
         },
         JoinPart {
             session,
             placements,
             clouds: PartClouds::Memory(&|robot, index| cloud_of(fleet, robot, index).map(<[_]>::to_vec)),
-            // The run's graphs name the prior's keyframes as robots `PRIOR_ROBOT_BASE + i`.
-            graph_ids: prior_session
-                .robots
+            // The run's graphs name the prior's keyframes as the prior peer's.
+            foreign_vertices: fleet
+                .prior
                 .iter()
-                .map(|robot| (PRIOR_ROBOT_BASE + robot.robot, robot.robot))
+                .flat_map(|prior| &prior.keyframes)
+                .map(|keyframe| {
+                    (
+                        g2o_vertex_id(keyframe.id),
+                        g2o_vertex_id(KeyframeId::new(keyframe.session_robot, keyframe.session_index)),
+                    )
+                })
                 .collect(),
         },
     ];

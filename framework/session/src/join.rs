@@ -33,9 +33,10 @@ pub struct JoinPart<'a> {
     /// joined session's map frame; `None` keeps a robot unplaced. Missing entries count as `None`.
     pub placements: Vec<Option<Pose>>,
     pub clouds: PartClouds<'a>,
-    /// Robot ids other than the session's own that its pose graphs name, and the joined id each stands
-    /// for (a run's prior robots stand for the prior session's robots). Ids not listed are kept.
-    pub graph_ids: BTreeMap<u32, u32>,
+    /// Vertices of other robots that the session's pose graphs name, and the joined vertex each stands
+    /// for (a run's prior keyframes stand for the prior session's keyframes). Vertices not listed keep
+    /// their ids.
+    pub foreign_vertices: BTreeMap<u64, u64>,
 }
 
 /// The joined session, and for each part which joined id each of its robots took.
@@ -61,9 +62,17 @@ fn assign_ids(parts: &[JoinPart<'_>]) -> Vec<BTreeMap<u32, u32>> {
     ids
 }
 
-/// The graph with every vertex's robot renamed by `rename` (vertex id = robot · 10⁶ + keyframe index).
-fn renumbered(graph: &PoseGraph<Pose>, rename: impl Fn(u32) -> u32) -> PoseGraph<Pose> {
+/// The graph with every vertex renamed: a listed foreign vertex as `foreign` says, any other with its
+/// robot renamed by `rename` (vertex id = robot · 10⁶ + keyframe index).
+fn renumbered(
+    graph: &PoseGraph<Pose>,
+    foreign: &BTreeMap<u64, u64>,
+    rename: impl Fn(u32) -> u32,
+) -> PoseGraph<Pose> {
     let vertex = |id: u64| {
+        if let Some(&joined) = foreign.get(&id) {
+            return joined;
+        }
         let robot = u32::try_from(id / 1_000_000).map_or(id / 1_000_000, |robot| u64::from(rename(robot)));
         robot * 1_000_000 + id % 1_000_000
     };
@@ -140,19 +149,13 @@ pub fn write_joined(dir: &Path, name: &str, parts: &[JoinPart<'_>]) -> Result<Jo
     let ids = assign_ids(parts);
     let mut robots = Vec::new();
     for (part, own_ids) in parts.iter().zip(&ids) {
-        let rename = |robot: u32| {
-            own_ids
-                .get(&robot)
-                .or_else(|| part.graph_ids.get(&robot))
-                .copied()
-                .unwrap_or(robot)
-        };
+        let rename = |robot: u32| own_ids.get(&robot).copied().unwrap_or(robot);
         for (position, robot) in part.session.robots.iter().enumerate() {
             let joined = SessionRobot {
                 robot: rename(robot.robot),
                 map_from_robot: part.placements.get(position).copied().flatten(),
                 keyframes: robot.keyframes.clone(),
-                graph: renumbered(&robot.graph, rename),
+                graph: renumbered(&robot.graph, &part.foreign_vertices, rename),
             };
             let folder = dir.join(crate::robot_folder(joined.robot));
             let mut write_cloud = |keyframe: &SessionKeyframe, path: &Path| match &part.clouds {

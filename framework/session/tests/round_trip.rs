@@ -252,14 +252,14 @@ fn joined_sessions_keep_every_robot_renumbered_and_placed_where_the_caller_says(
             session: &a,
             placements: a.robots.iter().map(|r| r.map_from_robot).collect(),
             clouds: skid_session::PartClouds::Folder(first.path()),
-            graph_ids: Default::default(),
+            foreign_vertices: Default::default(),
         },
         skid_session::JoinPart {
             session: &b,
             // Robot 0 of the second session is placed; its robot 1 stays unplaced.
             placements: vec![Some(moved)],
             clouds: skid_session::PartClouds::Memory(&b_cloud_of),
-            graph_ids: Default::default(),
+            foreign_vertices: Default::default(),
         },
     ];
     let joined = skid_session::write_joined(&joined_dir, "joined", &parts).unwrap();
@@ -301,13 +301,13 @@ fn joined_sessions_keep_every_robot_renumbered_and_placed_where_the_caller_says(
             session: &a,
             placements: vec![],
             clouds: skid_session::PartClouds::Folder(first.path()),
-            graph_ids: Default::default(),
+            foreign_vertices: Default::default(),
         },
         skid_session::JoinPart {
             session: &other,
             placements: vec![],
             clouds: skid_session::PartClouds::Memory(&b_cloud_of),
-            graph_ids: Default::default(),
+            foreign_vertices: Default::default(),
         },
     ];
     let error = skid_session::write_joined(&out.path().join("other"), "x", &parts)

@@ -13,8 +13,11 @@ use crate::prior::{PriorMap, is_prior_robot, prior_step_covariance};
 /// Where a robot stands in the prior's map.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Localisation {
-    /// The prior robot whose loops place it.
+    /// The prior peer whose loops place it.
     pub through: RobotId,
+    /// The session robot that recorded most of the prior keyframes its loops join (or, placed through
+    /// a fleet peer, the prior's first keyframe).
+    pub session_robot: Option<u32>,
     /// The robot's map frame in the prior's map frame.
     pub prior_from_map: Pose,
     /// Loops with the prior the verifier accepted (0 when placed through a fleet peer).
@@ -59,10 +62,11 @@ impl RobotHost {
         ))
     }
 
-    /// Takes in the prior: descriptors into the index, clouds held, each prior robot's keyframes as a
+    /// Takes in the prior: descriptors into the index, clouds held, the prior's keyframes as a
     /// chain in the prior's map frame.
     pub fn take_prior(&mut self, prior: &PriorMap, descriptor_plugin: &str) -> Result<(), RuntimeError> {
         let robot = self.robot;
+        self.prior_session_robots = prior.keyframes.iter().map(|k| k.session_robot).collect();
         for keyframe in &prior.keyframes {
             let id = keyframe.id;
             let previous = id.index.checked_sub(1).map(|index| KeyframeId {
@@ -94,10 +98,9 @@ impl RobotHost {
         Ok(())
     }
 
-    /// Where the verifier's accepted loops with a prior robot place this robot's map frame in the
-    /// prior's map frame: through the prior robot with the most loops, the median of the placements its
-    /// loops imply (each loop: the prior keyframe's pose, the loop, this robot's optimised keyframe pose).
-    /// Without such loops, a robot is placed through a fleet peer that reports the prior's frame (the
+    /// Where the verifier's accepted loops with the prior place this robot's map frame in the prior's
+    /// map frame: the median of the placements its loops imply (each loop: the prior keyframe's pose,
+    /// the loop, this robot's optimised keyframe pose). Without such loops, a robot is placed through a fleet peer that reports the prior's frame (the
     /// fleet's frame bookkeeping: chains of reported frames, checked against each other). `None` until
     /// either stands.
     pub fn localisation(&self) -> Option<Localisation> {
@@ -118,15 +121,19 @@ impl RobotHost {
         let own_first = self.keyframe_pose(0)?;
         Some(Localisation {
             through,
+            session_robot: self.prior_session_robots.first().copied(),
             prior_from_map: prior_first * frame.own_first_from_robot_first.inverse() * own_first.inverse(),
             loops: 0,
             via: frame.via,
         })
     }
 
-    /// The placement by this robot's own accepted loops with the prior.
+    /// The placement by this robot's own accepted loops with the prior: the medoid of the placements
+    /// they imply (each loop: the prior keyframe's pose, the loop, this robot's optimised keyframe pose).
     fn localisation_by_loops(&self) -> Option<Localisation> {
-        let mut by_prior: std::collections::BTreeMap<RobotId, Vec<Pose>> = std::collections::BTreeMap::new();
+        let mut placements = Vec::new();
+        let mut session_robots: std::collections::BTreeMap<u32, usize> = std::collections::BTreeMap::new();
+        let mut through = None;
         for closure in self.loops.accepted().values() {
             let (own, prior, own_from_prior) = match (closure.target.robot, closure.source.robot) {
                 (t, s) if t == self.robot && is_prior_robot(s) => {
@@ -143,16 +150,18 @@ impl RobotHost {
             else {
                 continue;
             };
-            by_prior
-                .entry(prior.robot)
-                .or_default()
-                .push(prior_pose * own_from_prior.inverse() * own_pose.inverse());
+            placements.push(prior_pose * own_from_prior.inverse() * own_pose.inverse());
+            through = Some(prior.robot);
+            if let Some(&session_robot) = self.prior_session_robots.get(prior.index as usize) {
+                *session_robots.entry(session_robot).or_default() += 1;
+            }
         }
-        let (through, placements) = by_prior
-            .into_iter()
-            .max_by_key(|(_, placements)| placements.len())?;
         Some(Localisation {
-            through,
+            through: through?,
+            session_robot: session_robots
+                .into_iter()
+                .max_by_key(|&(robot, loops)| (loops, std::cmp::Reverse(robot)))
+                .map(|(robot, _)| robot),
             prior_from_map: median_pose(&placements)?,
             loops: placements.len(),
             via: None,
