@@ -177,6 +177,25 @@ fn loop_ms_per_scan(summary: &skid_runtime::RunSummary) -> f64 {
     ms / scans.max(1) as f64
 }
 
+/// The settings of the mapping mission driven again: the map's, then the trials' sensor and season (their
+/// route length left out: the mission's own routes are driven), in the same world.
+pub(crate) fn mission_again_sets(settings: &RelocaliseSettings) -> Vec<String> {
+    let mut sets = settings.map_sets.clone();
+    sets.extend(
+        settings
+            .trial_sets
+            .iter()
+            .filter(|set| !set.starts_with("source.sim.route_length_m"))
+            .cloned(),
+    );
+    sets.extend([
+        format!("run.seed={}", settings.seed),
+        format!("source.sim.seed={}", settings.seed),
+        format!("source.sim.world={}", settings.world),
+    ]);
+    sets
+}
+
 /// Drives the mapping mission again, with the trials' sensor and season, with the prior and without.
 pub fn run_mission_comparison(
     settings: &RelocaliseSettings,
@@ -187,19 +206,9 @@ pub fn run_mission_comparison(
     let mut rows = Vec::new();
     for (mode, prior) in [("localise", Some(session_dir)), ("full SLAM", None)] {
         let name = format!("mission-{}", mode.replace(' ', "-"));
-        let mut sets = settings.map_sets.clone();
-        sets.extend(
-            settings
-                .trial_sets
-                .iter()
-                .filter(|set| !set.starts_with("source.sim.route_length_m"))
-                .cloned(),
-        );
+        let mut sets = mission_again_sets(settings);
         sets.extend([
             format!("run.name={name}"),
-            format!("run.seed={}", settings.seed),
-            format!("source.sim.seed={}", settings.seed),
-            format!("source.sim.world={}", settings.world),
             "output.record=false".to_owned(),
             "output.session=false".to_owned(),
             format!("run.output_dir=\"{}\"", out.join("runs").display()),

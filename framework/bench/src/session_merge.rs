@@ -12,7 +12,7 @@ use skid_core::Registry;
 use skid_sim::{World, WorldKind};
 
 use crate::aliasing::{FALSE_MERGE_DEG, FALSE_MERGE_M};
-use crate::relocalise::{RelocaliseSettings, figure, mapped_positions, start_junctions};
+use crate::relocalise::{RelocaliseSettings, figure, mapped_positions, mission_again_sets, start_junctions};
 use crate::slam::build_fleet;
 
 /// One merge.
@@ -96,20 +96,8 @@ pub fn run_merges(
     mut on_row: impl FnMut(&MergeRow) -> Result<()>,
 ) -> Result<Vec<MergeRow>> {
     let base_sets = |route_seed: usize| {
-        let mut sets = settings.map_sets.clone();
-        sets.extend(
-            settings
-                .trial_sets
-                .iter()
-                .filter(|set| !set.starts_with("source.sim.route_length_m"))
-                .cloned(),
-        );
-        sets.extend([
-            format!("run.seed={}", settings.seed),
-            format!("source.sim.seed={}", settings.seed),
-            format!("source.sim.world={}", settings.world),
-            format!("source.sim.route_seed={route_seed}"),
-        ]);
+        let mut sets = mission_again_sets(settings);
+        sets.push(format!("source.sim.route_seed={route_seed}"));
         sets
     };
     let mut rows = Vec::new();
