@@ -1,6 +1,7 @@
 //! Fuzz harnesses for every decoder that reads bytes from outside the process (issue #20, item 4): the
 //! inter-robot protocol (envelope and message bodies), the point-cloud files (PCD, PLY, KITTI `.bin`),
-//! the pose-graph files (g2o, TORO, JRL), the bag containers (ROS 1, MCAP) and the ROS messages inside them.
+//! the pose-graph files (g2o, TORO, JRL), the bag containers (ROS 1, MCAP) and the ROS messages inside them,
+//! and saved sessions (their descriptor files and whole session folders).
 //!
 //! Each harness takes arbitrary bytes, runs the real reader on them and checks what a caller relies on:
 //! no panic, no unbounded allocation (libFuzzer's `-malloc_limit_mb` catches that), and for inputs that
@@ -18,11 +19,13 @@ mod graphs;
 mod protocol;
 mod scratch;
 pub mod seeds;
+mod sessions;
 
 pub use bags::{mcap_bag, ros_messages, ros1_bag};
 pub use clouds::{kitti_bin, pcd, ply};
 pub use graphs::{g2o, jrl, toro};
 pub use protocol::protocol_message;
+pub use sessions::{SESSION_FILE_SEPARATOR, SESSION_FILES, session_descriptors, session_folder};
 
 /// A fuzz harness: arbitrary bytes in, a panic only on a real defect.
 pub type Harness = fn(&[u8]);
@@ -39,6 +42,8 @@ pub const TARGETS: &[(&str, Harness)] = &[
     ("ros1_bag", ros1_bag),
     ("mcap_bag", mcap_bag),
     ("ros_messages", ros_messages),
+    ("session_descriptors", session_descriptors),
+    ("session_folder", session_folder),
 ];
 
 /// The harness named `name`.

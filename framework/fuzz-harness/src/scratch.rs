@@ -35,3 +35,16 @@ pub fn with_file<R>(file_name: &str, data: &[u8], read: impl FnOnce(&Path) -> R)
     std::fs::write(&path, data).ok()?;
     Some(read(&path))
 }
+
+/// Writes `files` (name relative to the folder, bytes) into this thread's scratch session folder, emptied
+/// first, and runs `read` on the folder. A folder that cannot be written is skipped, as in [`with_file`].
+pub fn with_folder<R>(files: &[(&str, &[u8])], read: impl FnOnce(&Path) -> R) -> Option<R> {
+    let folder = scratch_folder().join("folder");
+    let _ = std::fs::remove_dir_all(&folder);
+    for (name, data) in files {
+        let path = folder.join(name);
+        std::fs::create_dir_all(path.parent()?).ok()?;
+        std::fs::write(&path, data).ok()?;
+    }
+    Some(read(&folder))
+}

@@ -219,6 +219,8 @@ pub fn seeds(target: &str) -> Vec<Vec<u8>> {
         "ros1_bag" => bag_seed(BagFormat::Ros1).into_iter().collect(),
         "mcap_bag" => bag_seed(BagFormat::Mcap).into_iter().collect(),
         "ros_messages" => ros_message_seeds(),
+        "session_descriptors" => session_descriptor_seeds(),
+        "session_folder" => session_folder_seed().into_iter().collect(),
         _ => Vec::new(),
     }
 }
@@ -236,4 +238,70 @@ fn ros_message_seeds() -> Vec<Vec<u8>> {
         seeds.push([vec![flag | 1], imu].concat());
     }
     seeds
+}
+
+/// Two descriptor files: three descriptors of four values, and none.
+fn session_descriptor_seeds() -> Vec<Vec<u8>> {
+    let values = [[0.25f32, 0.5, 0.0, 1.0], [1.0, 0.75, 0.5, 0.25], [0.0; 4]];
+    let entries: Vec<(u32, &[f32])> = values
+        .iter()
+        .enumerate()
+        .map(|(i, v)| (i as u32 * 2, &v[..]))
+        .collect();
+    [entries.as_slice(), &[]]
+        .iter()
+        .filter_map(|entries| skid_session::encode_descriptors(4, entries).ok())
+        .collect()
+}
+
+/// A one-robot session of three keyframes as SKiD writes it, its files joined by the separator.
+fn session_folder_seed() -> Option<Vec<u8>> {
+    use skid_session::{DescriptorSpec, Session, SessionKeyframe, SessionRobot};
+    let mut graph = skid_io::g2o::PoseGraph::default();
+    let keyframes: Vec<SessionKeyframe> = (0..3u32)
+        .map(|index| {
+            let pose = Pose::new(
+                nalgebra::Vector3::new(f64::from(index) * 1.5, 0.2, 0.0),
+                nalgebra::Vector3::new(0.0, 0.0, 0.1 * f64::from(index)),
+            );
+            graph.vertices.insert(u64::from(index), pose);
+            SessionKeyframe {
+                index,
+                stamp_nanos: 1_000_000_000 + u64::from(index) * 500_000_000,
+                map_from_sensor: pose,
+                odometry_from_sensor: pose,
+                ground_truth: (index != 1).then_some(pose),
+                point_count: 40,
+                descriptor: (index != 2).then(|| vec![0.5, f32::from(index as u8), 0.25]),
+            }
+        })
+        .collect();
+    let session = Session {
+        name: "seed".into(),
+        skid_version: "0.1.0".into(),
+        descriptor: Some(DescriptorSpec {
+            kind: "solid".into(),
+            params: serde_json::json!({"num_range_bins": 40}),
+            length: 3,
+        }),
+        config_toml: "[run]\nname = \"seed\"\n".into(),
+        robots: vec![SessionRobot {
+            robot: 0,
+            map_from_robot: Some(Pose::identity()),
+            keyframes,
+            graph,
+        }],
+    };
+    let finite: Vec<Point> = points().into_iter().filter(|p| p.x.is_finite()).collect();
+    let folder = std::env::temp_dir().join(format!("skid-session-seed-{}", std::process::id()));
+    skid_session::write_session(&folder, &session, |_, _| Some(finite.as_slice())).ok()?;
+    let mut joined = Vec::new();
+    for (position, name) in crate::SESSION_FILES.iter().enumerate() {
+        if position > 0 {
+            joined.extend_from_slice(crate::SESSION_FILE_SEPARATOR);
+        }
+        joined.extend(std::fs::read(folder.join(name)).ok()?);
+    }
+    let _ = std::fs::remove_dir_all(&folder);
+    Some(joined)
 }
