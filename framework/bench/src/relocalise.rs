@@ -441,8 +441,8 @@ pub fn run_trials(
     Ok(rows)
 }
 
-/// Whether a fix's error makes it false.
-fn is_false_fix(error_m: Option<f64>, error_deg: Option<f64>) -> bool {
+/// Whether a placement's error (a fix's, a merge's) makes it false.
+pub(crate) fn is_false_fix(error_m: Option<f64>, error_deg: Option<f64>) -> bool {
     error_m
         .zip(error_deg)
         .is_some_and(|(m, deg)| m > FALSE_MERGE_M || deg > FALSE_MERGE_DEG)
@@ -519,7 +519,7 @@ pub fn fleet_markdown(rows: &[FleetRow]) -> String {
     )
 }
 
-pub(crate) fn median(mut values: Vec<f64>) -> Option<f64> {
+fn median(mut values: Vec<f64>) -> Option<f64> {
     values.sort_by(f64::total_cmp);
     values.get(values.len() / 2).copied()
 }

@@ -11,8 +11,9 @@ use serde::Serialize;
 use skid_core::Registry;
 use skid_sim::{World, WorldKind};
 
-use crate::aliasing::{FALSE_MERGE_DEG, FALSE_MERGE_M};
-use crate::relocalise::{RelocaliseSettings, figure, mapped_positions, mission_again_sets, start_junctions};
+use crate::relocalise::{
+    RelocaliseSettings, figure, is_false_fix, mapped_positions, mission_again_sets, start_junctions,
+};
 use crate::slam::build_fleet;
 
 /// One merge.
@@ -78,11 +79,7 @@ fn merge_row(
         loops: outcome.robots.iter().map(|r| r.loops).sum(),
         error_m: outcome.error_m,
         error_deg: outcome.error_deg,
-        false_merge: outcome.placed
-            && outcome
-                .error_m
-                .zip(outcome.error_deg)
-                .is_some_and(|(m, deg)| m > FALSE_MERGE_M || deg > FALSE_MERGE_DEG),
+        false_merge: outcome.placed && is_false_fix(outcome.error_m, outcome.error_deg),
         merge_s: report.wall_s,
     })
 }

@@ -18,12 +18,10 @@ mod feed;
 mod map;
 mod merge;
 mod report;
-mod truth;
 
 pub use feed::SessionFeed;
 pub use merge::merge_sessions;
-pub use report::{MergeReport, PoseRecord, RobotOutcome, SessionOutcome};
-pub use truth::{placement_error, world_from_map};
+pub use report::{MergeReport, RobotOutcome, SessionOutcome};
 
 use std::path::PathBuf;
 

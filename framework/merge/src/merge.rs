@@ -12,7 +12,7 @@ use skid_session::{
 };
 
 use crate::feed::SessionFeed;
-use crate::report::{MergeReport, PoseRecord, RobotOutcome, SessionOutcome};
+use crate::report::{MergeReport, RobotOutcome, SessionOutcome};
 use crate::{MergeError, MergeRequest};
 
 fn read(path: &Path) -> Result<(PathBuf, Session), MergeError> {
@@ -151,7 +151,7 @@ fn merge_in(
     started: Instant,
 ) -> Result<MergeReport, MergeError> {
     let (base_dir, base) = read(&request.sessions[0])?;
-    let world_from_base = crate::truth::world_from_map(&base);
+    let world_from_base = base.world_from_map();
     let (mut current_dir, mut current) = (base_dir.clone(), base);
     let mut outcomes = Vec::new();
     for (step, path) in request.sessions.iter().enumerate().skip(1) {
@@ -193,14 +193,15 @@ fn merge_in(
                 base_from_session,
                 robots,
             } => {
-                let joined_dir = work.join(format!("step-{step}"));
+                // The last session placed goes straight into the output; earlier steps are the priors
+                // of later ones.
+                let joined_dir = if step + 1 == request.sessions.len() {
+                    request.out.clone()
+                } else {
+                    work.join(format!("step-{step}"))
+                };
                 let parts = [
-                    JoinPart {
-                        session: &current,
-                        placements: current.robots.iter().map(|r| r.map_from_robot).collect(),
-                        clouds: PartClouds::Folder(&current_dir),
-                        foreign_vertices: Default::default(),
-                    },
+                    JoinPart::as_saved(&current, &current_dir),
                     JoinPart {
                         session: &session,
                         placements: robots.clone(),
@@ -215,10 +216,12 @@ fn merge_in(
                         source,
                     })?;
                 outcome.placed = true;
-                outcome.merged_from_session = base_from_session.as_ref().map(PoseRecord::of);
+                outcome.merged_from_session = base_from_session
+                    .as_ref()
+                    .map(skid_session::PoseRecord::from_pose);
                 if let Some((metres, degrees)) = world_from_base
                     .as_ref()
-                    .and_then(|world| crate::truth::placement_error(world, &session, &robots))
+                    .and_then(|world| session.placement_error(world, &robots))
                 {
                     outcome.error_m = Some(metres);
                     outcome.error_deg = Some(degrees);
@@ -235,7 +238,8 @@ fn merge_in(
     finish(request, &current_dir, &current, outcomes, started)
 }
 
-/// Writes the merged session, its map and the report into `request.out`.
+/// Completes `request.out` with the merged session (when the last step did not write it there), its map
+/// and the report.
 fn finish(
     request: &MergeRequest,
     current_dir: &Path,
@@ -248,15 +252,12 @@ fn finish(
         path: out.clone(),
         source,
     };
-    let part = JoinPart {
-        session: current,
-        placements: current.robots.iter().map(|r| r.map_from_robot).collect(),
-        clouds: PartClouds::Folder(current_dir),
-        foreign_vertices: Default::default(),
-    };
-    let joined = write_joined(out, &current.name, &[part]).map_err(session_error)?;
-    let map =
-        crate::map::session_map(out, &joined.session, skid_runtime::MAP_VOXEL_M).map_err(session_error)?;
+    // Unless the last session was placed (and written there), the output is the session built so far.
+    if current_dir != out.as_path() {
+        write_joined(out, &current.name, &[JoinPart::as_saved(current, current_dir)])
+            .map_err(session_error)?;
+    }
+    let map = crate::map::session_map(out, current, skid_runtime::MAP_VOXEL_M).map_err(session_error)?;
     let map_path = out.join("map.ply");
     skid_io::ply::write_ply(&map_path, &map, skid_io::ply::PlyFormat::BinaryLittleEndian)
         .map_err(|e| session_error(e.into()))?;
@@ -264,8 +265,8 @@ fn finish(
         base: request.sessions[0].display().to_string(),
         out: out.display().to_string(),
         sessions,
-        robots: joined.session.robots.len(),
-        keyframes: joined.session.robots.iter().map(|r| r.keyframes.len()).sum(),
+        robots: current.robots.len(),
+        keyframes: current.robots.iter().map(|r| r.keyframes.len()).sum(),
         map_points: map.len(),
         wall_s: started.elapsed().as_secs_f64(),
     };

@@ -3,24 +3,7 @@
 //! ground truth where both sessions know it.
 
 use serde::Serialize;
-use skid_core::Pose;
-
-/// A pose as the session format writes it.
-#[derive(Clone, Copy, Debug, Serialize)]
-pub struct PoseRecord {
-    pub translation_m: [f64; 3],
-    pub rotation_xyzw: [f64; 4],
-}
-
-impl PoseRecord {
-    pub fn of(pose: &Pose) -> Self {
-        let q = pose.rotation.coords;
-        Self {
-            translation_m: pose.translation.vector.into(),
-            rotation_xyzw: [q.x, q.y, q.z, q.w],
-        }
-    }
-}
+use skid_session::PoseRecord;
 
 /// One robot of a session being merged.
 #[derive(Clone, Debug, Serialize)]

@@ -22,7 +22,7 @@ use skid_bag::write::encode;
 use skid_bag::write::viz::{self, FrameTransform, LineListMarker};
 use skid_core::pose::pose_to_wire;
 use skid_core::{KeyframeId, Pose, RawPoint, RobotId};
-use skid_runtime::{HostObserver, LOOP_CLASSES, RobotHost, own_frame_loops};
+use skid_runtime::{HostObserver, LOOP_CLASSES, Localisation, RobotHost, own_frame_loops};
 use zenoh::Wait;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Publisher;
@@ -161,18 +161,18 @@ impl Ros2Live {
         Some(host.keyframe_pose(index)? * host.chains().pose(id)?.inverse())
     }
 
-    /// Publishes the robot's standing in the prior map when it has changed (a run with a prior only).
-    fn publish_standing(&mut self, host: &RobotHost) {
+    /// Publishes the robot's standing in the prior map, `placed`, when it has changed (a run with a prior
+    /// only).
+    fn publish_standing(&mut self, placed: Option<&Localisation>) {
         if !self.settings.prior {
             return;
         }
-        let placed = host.localisation();
         let standing = serde_json::json!({
             "robot": self.robot.0,
             "localised": placed.is_some(),
-            "through_session_robot": placed.as_ref().and_then(|p| p.session_robot),
-            "via_robot": placed.as_ref().and_then(|p| p.via).map(|robot| robot.0),
-            "loops": placed.as_ref().map_or(0, |p| p.loops),
+            "through_session_robot": placed.and_then(|p| p.session_robot),
+            "via_robot": placed.and_then(|p| p.via).map(|robot| robot.0),
+            "loops": placed.map_or(0, |p| p.loops),
         })
         .to_string();
         if self.last_standing.as_deref() != Some(standing.as_str()) {
@@ -266,7 +266,12 @@ impl HostObserver for Ros2Live {
                 parent_from_child: pose_to_wire(&self.map_from_odom),
             },
         ];
-        if let Some(placed) = host.localisation() {
+        let placed = if self.settings.prior {
+            host.localisation()
+        } else {
+            None
+        };
+        if let Some(placed) = &placed {
             transforms.push(FrameTransform {
                 stamp_nanos: scan.stamp_nanos,
                 parent: PRIOR_MAP_FRAME.to_owned(),
@@ -275,7 +280,7 @@ impl HostObserver for Ros2Live {
             });
         }
         self.tf.put(viz::tf_message(&transforms));
-        self.publish_standing(host);
+        self.publish_standing(placed.as_ref());
     }
 
     fn optimized(&mut self, host: &RobotHost) {

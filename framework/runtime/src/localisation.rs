@@ -40,24 +40,14 @@ pub struct LocalisationSummary {
     pub error_deg: Option<f64>,
 }
 
-fn median(mut values: Vec<f64>) -> Option<f64> {
-    values.sort_by(f64::total_cmp);
-    values.get(values.len() / 2).copied()
-}
-
-/// Where the prior's map frame sits in the world of its ground truth: the mean over its keyframes of
-/// what each one's true and estimated poses say (full poses, so that a prior along one straight road
-/// still fixes its roll, which positions alone would leave free).
+/// Where the prior's map frame sits in the world of its ground truth.
 fn world_from_prior(prior: &PriorMap) -> Option<Pose> {
-    let estimates: Vec<(Pose, usize)> = prior
-        .keyframes
-        .iter()
-        .filter_map(|k| Some((k.ground_truth? * k.session_from_sensor.inverse(), 1)))
-        .collect();
-    if estimates.len() < 3 {
-        return None;
-    }
-    skid_session::weighted_mean(&estimates)
+    skid_session::world_from_map_pairs(
+        prior
+            .keyframes
+            .iter()
+            .filter_map(|k| Some((k.session_from_sensor, k.ground_truth?))),
+    )
 }
 
 /// The robot's standing in `prior`.
@@ -98,25 +88,22 @@ pub fn summarise(host: &RobotHost, prior: &PriorMap) -> LocalisationSummary {
         return summary;
     };
     let since = first_fix_nanos.unwrap_or(0);
-    let (mut position_m, mut rotation_deg) = (Vec::new(), Vec::new());
-    for scan in host.scans().iter().filter(|scan| scan.stamp_nanos >= since) {
-        let (Some(truth), Some(index)) = (scan.ground_truth, scan.keyframe) else {
-            continue;
-        };
-        let Some(keyframe) = host.keyframes().get(&index) else {
-            continue;
-        };
-        if keyframe.stamp_nanos != scan.stamp_nanos {
-            continue;
-        }
-        let Some(estimate) = host.keyframe_pose(index) else {
-            continue;
-        };
-        let delta = (world_from_prior * placed.prior_from_map * estimate).inverse() * truth;
-        position_m.push(delta.translation.vector.norm());
-        rotation_deg.push(delta.rotation.angle().to_degrees());
+    let placed_against_truth = host
+        .scans()
+        .iter()
+        .filter(|scan| scan.stamp_nanos >= since)
+        .filter_map(|scan| {
+            let (truth, index) = (scan.ground_truth?, scan.keyframe?);
+            let keyframe = host.keyframes().get(&index)?;
+            if keyframe.stamp_nanos != scan.stamp_nanos {
+                return None;
+            }
+            let estimate = host.keyframe_pose(index)?;
+            Some((world_from_prior * placed.prior_from_map * estimate, truth))
+        });
+    if let Some((metres, degrees)) = skid_session::median_errors(placed_against_truth) {
+        summary.error_m = Some(metres);
+        summary.error_deg = Some(degrees);
     }
-    summary.error_m = median(position_m);
-    summary.error_deg = median(rotation_deg);
     summary
 }

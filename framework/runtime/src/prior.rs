@@ -7,11 +7,12 @@
 //! hold, and whose "odometry chain" is its keyframes' poses in the session's map frame with a tight
 //! step covariance (the step from one session robot's last keyframe to the next one's first included:
 //! the session placed them in one frame). One peer, not one per session robot, so that loops with
-//! places different session robots mapped are judged together, as the one map they are. Candidates between a robot and the prior go through the same coarse and fine
-//! registration and the same verifier (its earned-merge rules included) as loops between robots; the
-//! robot is localised once the verifier grants a set of loops with the prior, and placed by them.
-//! Nothing is ever sent to the prior. The session's descriptor must be the run's, parameters and
-//! all: descriptors of another kind or resolution cannot be compared.
+//! places different session robots mapped are judged together, as the one map they are. Candidates
+//! between a robot and the prior go through the same coarse and fine registration and the same
+//! verifier (its earned-merge rules included) as loops between robots; the robot is localised once
+//! the verifier grants a set of loops with the prior, and placed by them. Nothing is ever sent to the
+//! prior. The session's descriptor must be the run's, parameters and all: descriptors of another kind
+//! or resolution cannot be compared.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -75,17 +76,6 @@ pub struct PriorMap {
     pub descriptor_kind: String,
     /// Keyframes of every placed session robot, by robot then index.
     pub keyframes: Vec<PriorKeyframe>,
-}
-
-impl PriorMap {
-    /// The session robot and keyframe index of the prior peer's keyframe `id`.
-    pub fn session_keyframe(&self, id: KeyframeId) -> Option<(u32, u32)> {
-        if id.robot.0 != PRIOR_ROBOT_BASE {
-            return None;
-        }
-        let keyframe = self.keyframes.get(id.index as usize)?;
-        Some((keyframe.session_robot, keyframe.session_index))
-    }
 }
 
 fn prior_error(dir: &Path, message: impl ToString) -> RuntimeError {

@@ -95,10 +95,13 @@ fn write_extended(dir: &Path, fleet: &Fleet, session: &Session, prior: &Path) ->
         .robots
         .iter()
         .zip(&session.robots)
-        .map(|(host, robot)| RobotStanding {
-            session_from_robot: robot.map_from_robot,
-            base_from_robot: host.localisation().map(|placed| placed.prior_from_map),
-            loops: host.localisation().map_or(0, |placed| placed.loops),
+        .map(|(host, robot)| {
+            let placed = host.localisation();
+            RobotStanding {
+                session_from_robot: robot.map_from_robot,
+                base_from_robot: placed.map(|placed| placed.prior_from_map),
+                loops: placed.map_or(0, |placed| placed.loops),
+            }
         })
         .collect();
     let placements = match place_session(&standings) {
@@ -109,12 +112,7 @@ fn write_extended(dir: &Path, fleet: &Fleet, session: &Session, prior: &Path) ->
         }
     };
     let parts = [
-        JoinPart {
-            session: &prior_session,
-            placements: prior_session.robots.iter().map(|r| r.map_from_robot).collect(),
-            clouds: PartClouds::Folder(&prior_dir),
-            foreign_vertices: Default::default(),
-        },
+        JoinPart::as_saved(&prior_session, &prior_dir),
         JoinPart {
             session,
             placements,

@@ -39,6 +39,18 @@ pub struct JoinPart<'a> {
     pub foreign_vertices: BTreeMap<u64, u64>,
 }
 
+impl<'a> JoinPart<'a> {
+    /// A session saved in `dir`, joined as it is: each robot where the session placed it.
+    pub fn as_saved(session: &'a Session, dir: &'a Path) -> Self {
+        Self {
+            session,
+            placements: session.robots.iter().map(|robot| robot.map_from_robot).collect(),
+            clouds: PartClouds::Folder(dir),
+            foreign_vertices: BTreeMap::new(),
+        }
+    }
+}
+
 /// The joined session, and for each part which joined id each of its robots took.
 pub struct Joined {
     pub session: Session,

@@ -41,15 +41,18 @@ mod manifest;
 mod model;
 mod place;
 mod read;
+mod truth;
 mod write;
 
 pub use descriptors::{DecodedDescriptors, decode_descriptors, encode_descriptors};
 pub use error::SessionError;
 pub use info::{RobotInfo, SessionInfo};
 pub use join::{JoinPart, Joined, PartClouds, write_joined};
+pub use manifest::PoseRecord;
 pub use model::{DescriptorSpec, Session, SessionKeyframe, SessionRobot};
 pub use place::{AGREE_DEG, AGREE_M, RobotStanding, SessionPlacement, place_session, weighted_mean};
 pub use read::{read_keyframe_cloud, read_session};
+pub use truth::{median_errors, world_from_map_pairs};
 pub use write::write_session;
 
 /// The manifest's `format` value.

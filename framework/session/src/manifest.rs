@@ -8,13 +8,14 @@ use skid_core::Pose;
 /// A pose in JSON: translation in metres and a unit quaternion, x y z w.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub(crate) struct PoseRecord {
+pub struct PoseRecord {
     pub translation_m: [f64; 3],
     pub rotation_xyzw: [f64; 4],
 }
 
 impl PoseRecord {
-    pub(crate) fn from_pose(pose: &Pose) -> Self {
+    /// The record of `pose`.
+    pub fn from_pose(pose: &Pose) -> Self {
         let t = pose.translation.vector;
         let q = pose.rotation.quaternion();
         Self {

@@ -13,8 +13,6 @@ use crate::prior::{PriorMap, is_prior_robot, prior_step_covariance};
 /// Where a robot stands in the prior's map.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Localisation {
-    /// The prior peer whose loops place it.
-    pub through: RobotId,
     /// The session robot that recorded most of the prior keyframes its loops join (or, placed through
     /// a fleet peer, the prior's first keyframe).
     pub session_robot: Option<u32>,
@@ -100,9 +98,9 @@ impl RobotHost {
 
     /// Where the verifier's accepted loops with the prior place this robot's map frame in the prior's
     /// map frame: the median of the placements its loops imply (each loop: the prior keyframe's pose,
-    /// the loop, this robot's optimised keyframe pose). Without such loops, a robot is placed through a fleet peer that reports the prior's frame (the
-    /// fleet's frame bookkeeping: chains of reported frames, checked against each other). `None` until
-    /// either stands.
+    /// the loop, this robot's optimised keyframe pose). Without such loops, a robot is placed through a
+    /// fleet peer that reports the prior's frame (the fleet's frame bookkeeping: chains of reported
+    /// frames, checked against each other). `None` until either stands.
     pub fn localisation(&self) -> Option<Localisation> {
         self.localisation_by_loops()
             .or_else(|| self.localisation_through_peers())
@@ -120,7 +118,6 @@ impl RobotHost {
         })?;
         let own_first = self.keyframe_pose(0)?;
         Some(Localisation {
-            through,
             session_robot: self.prior_session_robots.first().copied(),
             prior_from_map: prior_first * frame.own_first_from_robot_first.inverse() * own_first.inverse(),
             loops: 0,
@@ -133,7 +130,6 @@ impl RobotHost {
     fn localisation_by_loops(&self) -> Option<Localisation> {
         let mut placements = Vec::new();
         let mut session_robots: std::collections::BTreeMap<u32, usize> = std::collections::BTreeMap::new();
-        let mut through = None;
         for closure in self.loops.accepted().values() {
             let (own, prior, own_from_prior) = match (closure.target.robot, closure.source.robot) {
                 (t, s) if t == self.robot && is_prior_robot(s) => {
@@ -151,13 +147,11 @@ impl RobotHost {
                 continue;
             };
             placements.push(prior_pose * own_from_prior.inverse() * own_pose.inverse());
-            through = Some(prior.robot);
             if let Some(&session_robot) = self.prior_session_robots.get(prior.index as usize) {
                 *session_robots.entry(session_robot).or_default() += 1;
             }
         }
         Some(Localisation {
-            through: through?,
             session_robot: session_robots
                 .into_iter()
                 .max_by_key(|&(robot, loops)| (loops, std::cmp::Reverse(robot)))
