@@ -45,6 +45,11 @@ pub struct PgoConfig {
     /// factors of their ends free, then refines the whole graph once ([`crate::region`]); 0 = graduate
     /// over the whole graph.
     pub warm_region_hops: usize,
+    /// With `robust = "gnc"`: when a warm GNC run rejects a loop new since the last run, the labels are
+    /// settled again by a full run. A new loop that disagrees with the last consensus is where that
+    /// consensus may be wrong (on COSMO-Bench's real problems, the loops closing a route's start long
+    /// after it drifted); off, the warm labels stand until the next scheduled full run.
+    pub full_run_on_rejected_new_loop: bool,
 }
 
 impl Default for PgoConfig {
@@ -57,6 +62,7 @@ impl Default for PgoConfig {
             init: Initialization::File,
             relative_tolerance: 1e-6,
             warm_region_hops: 4,
+            full_run_on_rejected_new_loop: true,
         }
     }
 }
@@ -376,21 +382,28 @@ impl PgoBackend {
                 Some(threshold) => {
                     let earlier = self.memory.earlier_labels(&subgraph.factor_loops);
                     let hops = (self.config.warm_region_hops > 0).then_some(self.config.warm_region_hops);
-                    gnc_tls_warm(
+                    let warm = gnc_tls_warm(
                         &mut subgraph.problem,
                         &gnc,
                         threshold,
                         &earlier,
                         hops,
                         &mut self.cache,
-                    )?
+                    )?;
+                    // A new loop the warm run rejects may be the one that overturns the consensus the
+                    // warm start stands on (a long loop closing far from where the estimate has drifted
+                    // to): the labels are then settled again by a full run.
+                    let rejects_new_loop = earlier
+                        .iter()
+                        .zip(&subgraph.factor_loops)
+                        .zip(&warm.weights)
+                        .any(|((before, id), weight)| id.is_some() && before.is_none() && *weight < 0.5);
+                    match rejects_new_loop && self.config.full_run_on_rejected_new_loop {
+                        true => self.full_gnc_run(subgraph, &gnc, loop_count, nominal)?,
+                        false => warm,
+                    }
                 }
-                None => {
-                    let outcome = gnc_tls(&mut subgraph.problem, &gnc, &mut self.cache)?;
-                    self.memory
-                        .full_run(loop_count, strict_threshold(&outcome, nominal));
-                    outcome
-                }
+                None => self.full_gnc_run(subgraph, &gnc, loop_count, nominal)?,
             };
             self.memory.keep_labels(&subgraph.factor_loops, &outcome.weights);
             OptimizeReport {
@@ -411,6 +424,23 @@ impl PgoBackend {
         self.memory.changed = !report.converged;
         self.memory.last_report = report.clone();
         Ok(report)
+    }
+}
+
+impl PgoBackend {
+    /// GNC from scratch over the whole subgraph (every label settled anew), remembered as the full run
+    /// that warm starts build on.
+    fn full_gnc_run(
+        &mut self,
+        subgraph: &mut crate::distributed::Subgraph,
+        gnc: &GncSettings,
+        loop_count: usize,
+        nominal: f64,
+    ) -> PluginResult<crate::gnc::GncOutcome> {
+        let outcome = gnc_tls(&mut subgraph.problem, gnc, &mut self.cache)?;
+        self.memory
+            .full_run(loop_count, strict_threshold(&outcome, nominal));
+        Ok(outcome)
     }
 }
 

@@ -17,7 +17,8 @@
 //!   variance factor re-estimated) happens once the loops added and removed since the last full run
 //!   number as many as the loops that run had, so its cost, which grows with the graph, is amortised
 //!   to a constant per loop change however the verifier's verdicts come (additions only, or a set that
-//!   turns over at a constant size).
+//!   turns over at a constant size); and, with `full_run_on_rejected_new_loop`, as soon as a warm run
+//!   rejects a loop new since the last run, which the warm start's settled labels may be wrong about.
 
 use std::collections::BTreeMap;
 

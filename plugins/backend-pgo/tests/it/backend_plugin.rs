@@ -196,12 +196,8 @@ fn wrong_loop(id: u64, a: u32, b: u32, offset_m: f64) -> LoopClosure {
     closure
 }
 
-#[test]
-fn gnc_warm_started_from_the_last_solution_ends_where_a_full_run_does() {
-    let gnc = || PgoConfig {
-        robust: skid_backend_pgo::g2o_file::RobustMode::Gnc,
-        ..PgoConfig::default()
-    };
+/// Ten true loops, then three true and two wrong ones.
+fn first_and_second_loops() -> (Vec<LoopClosure>, Vec<LoopClosure>) {
     let first: Vec<LoopClosure> = (0..10)
         .map(|k| inter_loop(k, 2 * (k as u32 % 9) + 1, 2 * (k as u32 % 9)))
         .collect();
@@ -213,6 +209,36 @@ fn gnc_warm_started_from_the_last_solution_ends_where_a_full_run_does() {
     .into_iter()
     .chain([wrong_loop(23, 10, 10, 3.0), wrong_loop(24, 6, 7, -2.5)])
     .collect();
+    (first, second)
+}
+
+/// Solves `first`, then `second` on top of it; returns the backend and the second solve's report.
+fn solved_in_two_steps(
+    config: PgoConfig,
+    first: &[LoopClosure],
+    second: &[LoopClosure],
+) -> (PgoBackend, skid_core::slots::OptimizeReport) {
+    let mut backend = two_robot_backend(config);
+    for closure in first {
+        backend.add_loop(closure.clone()).unwrap();
+    }
+    assert!(backend.optimize(OptimizeBudget::default()).unwrap().converged);
+    for closure in second {
+        backend.add_loop(closure.clone()).unwrap();
+    }
+    let report = backend.optimize(OptimizeBudget::default()).unwrap();
+    (backend, report)
+}
+
+#[test]
+fn gnc_warm_started_from_the_last_solution_ends_where_a_full_run_does() {
+    // The warm path alone: no full run when it rejects a new loop.
+    let gnc = || PgoConfig {
+        robust: skid_backend_pgo::g2o_file::RobustMode::Gnc,
+        full_run_on_rejected_new_loop: false,
+        ..PgoConfig::default()
+    };
+    let (first, second) = first_and_second_loops();
     let mut incremental = two_robot_backend(gnc());
     for closure in &first {
         incremental.add_loop(closure.clone()).unwrap();
@@ -249,6 +275,39 @@ fn gnc_warm_started_from_the_last_solution_ends_where_a_full_run_does() {
         warm.iterations,
         full_report.iterations
     );
+}
+
+#[test]
+fn a_warm_run_that_rejects_a_new_loop_is_settled_again_by_a_full_run() {
+    let gnc = |full_run_on_rejected_new_loop| PgoConfig {
+        robust: skid_backend_pgo::g2o_file::RobustMode::Gnc,
+        full_run_on_rejected_new_loop,
+        ..PgoConfig::default()
+    };
+    let (first, second) = first_and_second_loops();
+    let (warm, warm_report) = solved_in_two_steps(gnc(false), &first, &second);
+    let (settled, settled_report) = solved_in_two_steps(gnc(true), &first, &second);
+    let mut full = two_robot_backend(gnc(true));
+    for closure in first.iter().chain(&second) {
+        full.add_loop(closure.clone()).unwrap();
+    }
+    let full_report = full.optimize(OptimizeBudget::default()).unwrap();
+    // The two wrong loops are rejected by the warm run, so the labels were settled by a full run: the
+    // same work as a full run from scratch, where the warm run alone did less.
+    assert_eq!(settled.rejected_loops(), vec![LoopId(23), LoopId(24)]);
+    assert_eq!(warm.rejected_loops(), vec![LoopId(23), LoopId(24)]);
+    assert!(warm_report.iterations < full_report.iterations);
+    assert!(
+        settled_report.iterations >= full_report.iterations,
+        "{settled_report:?}"
+    );
+    for (k, (a, b)) in all_poses(&settled).iter().zip(all_poses(&full)).enumerate() {
+        let difference = (a.inverse() * b).translation.vector.norm();
+        assert!(difference < 1e-3, "pose {k}: {difference} m from the full run");
+    }
+    // With only true new loops, the warm run rejects none and no full run follows.
+    let (_, true_only) = solved_in_two_steps(gnc(true), &first, &second[..3]);
+    assert!(true_only.iterations < full_report.iterations, "{true_only:?}");
 }
 
 #[test]
