@@ -96,8 +96,12 @@ pub(crate) fn judge(
     refuted: &BTreeSet<usize>,
     graph: &dyn GraphView,
 ) -> Option<Withheld> {
-    let spread_m = spread_m(members.iter().map(|&k| loops[k].target), graph)
-        .min(spread_m(members.iter().map(|&k| loops[k].source), graph));
+    let enough_m = rule.min_spread_m;
+    let spread_m = spread_m(members.iter().map(|&k| loops[k].target), graph, enough_m).min(spread_m(
+        members.iter().map(|&k| loops[k].source),
+        graph,
+        enough_m,
+    ));
     if spread_m < rule.min_spread_m {
         return Some(Withheld::Clustered { spread_m });
     }
@@ -216,21 +220,30 @@ fn together(rule: &GrantRule, loops: &[PcmLoop], members: &[usize], graph: &dyn 
 }
 
 /// The largest distance between two of the keyframes (all of one robot), from the graph's poses; the
-/// relative odometry stands in when a pose is missing.
-fn spread_m(keyframes: impl Iterator<Item = KeyframeId>, graph: &dyn GraphView) -> f64 {
+/// relative odometry stands in when a pose is missing. The search stops at the first pair `enough_m`
+/// apart or more: the rule asks only whether the spread reaches it, and a large set of loops would
+/// otherwise cost the square of its size at every judgement.
+fn spread_m(keyframes: impl Iterator<Item = KeyframeId>, graph: &dyn GraphView, enough_m: f64) -> f64 {
     let mut ids: Vec<KeyframeId> = keyframes.collect();
     ids.sort_unstable();
     ids.dedup();
+    let positions: Vec<Option<nalgebra::Vector3<f64>>> = ids
+        .iter()
+        .map(|id| graph.pose(*id).map(|pose| pose.translation.vector))
+        .collect();
     let mut widest = 0.0f64;
     for (i, a) in ids.iter().enumerate() {
-        for b in &ids[i + 1..] {
-            let distance = match (graph.pose(*a), graph.pose(*b)) {
-                (Some(pa), Some(pb)) => (pa.translation.vector - pb.translation.vector).norm(),
+        for (j, b) in ids.iter().enumerate().skip(i + 1) {
+            let distance = match (positions[i], positions[j]) {
+                (Some(pa), Some(pb)) => (pa - pb).norm(),
                 _ => graph.odometry_between(*a, *b).map_or(0.0, |relative| {
                     relative.target_from_source.translation.vector.norm()
                 }),
             };
             widest = widest.max(distance);
+            if widest >= enough_m {
+                return widest;
+            }
         }
     }
     widest

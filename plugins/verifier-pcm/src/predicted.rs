@@ -117,6 +117,10 @@ pub(crate) fn predicted_overlaps(
     if rule.radius_m <= 0.0 {
         return predicted;
     }
+    // A host that cannot compare the set's own keyframes compares none: nothing to predict with.
+    if graph.looks_alike(first.target, first.source).is_none() {
+        return predicted;
+    }
     let (a, b) = (first.target.robot, first.source.robot);
     let frames: Vec<Pose> = placements(loops, members, graph)
         .into_iter()
