@@ -225,15 +225,6 @@ impl Group {
         (local.into_iter().map(|i| kept[i]).collect(), exact)
     }
 
-    /// Whether an inter-robot group that would still wait for loops holds enough of them, each agreeing
-    /// with the frame already known through a third robot, to decide now.
-    fn confirmed_by_cycle(&self, params: &PcmParams, graph: &dyn GraphView) -> bool {
-        let members: Vec<usize> = (0..self.loops.len()).collect();
-        params.min_loops_with_cycle > 0
-            && self.loops.len() >= params.min_loops_with_cycle
-            && agrees_with_cycle(&params.grant_rule(), &self.loops, &members, graph)
-    }
-
     /// Judges an inter-robot group's leading set; a set whose predictions fail is refuted for good and
     /// the leading set of the loops left is judged in its place, so a wrong frame that outnumbers the
     /// right one does not hold it back.
@@ -312,25 +303,14 @@ impl Pcm {
     }
 
     /// Re-judges every decided inter-robot group's leading set against the graph as it is now (new
-    /// frames through third robots, say), and decides a waiting group whose loops all agree with a frame
-    /// that a third robot now gives: returns the loops granted and withdrawn.
+    /// frames through third robots, say): returns the loops granted and withdrawn.
     pub fn reconsider(&mut self, graph: &dyn GraphView) -> (Vec<LoopId>, Vec<LoopId>) {
         let (mut accepted, mut retracted) = (Vec::new(), Vec::new());
         for (&(a, b), group) in &mut self.groups {
-            if a == b {
+            if a == b || !group.decided {
                 continue;
             }
-            let before: BTreeSet<usize> = match group.decided {
-                true => group.granted().iter().copied().collect(),
-                false => BTreeSet::new(),
-            };
-            if !group.decided {
-                if !group.confirmed_by_cycle(&self.params, graph) {
-                    continue;
-                }
-                (group.clique, group.exact) = group.leading_without_refuted(&self.params);
-                group.decided = true;
-            }
+            let before: BTreeSet<usize> = group.granted().iter().copied().collect();
             group.settle(&self.params, graph);
             let after: BTreeSet<usize> = group.granted().iter().copied().collect();
             accepted.extend(after.difference(&before).map(|&k| group.loops[k].id));
@@ -371,7 +351,14 @@ impl Pcm {
         let before: BTreeSet<usize> = group.granted().iter().copied().collect();
         // The cycle is only asked about while the group would otherwise still wait.
         let waits = group.loops.len() < self.params.min_loops_before_decision.max(1);
-        if waits && (intra || !group.confirmed_by_cycle(&self.params, graph)) {
+        let early = || {
+            let members: Vec<usize> = (0..group.loops.len()).collect();
+            !intra
+                && self.params.min_loops_with_cycle > 0
+                && group.loops.len() >= self.params.min_loops_with_cycle
+                && agrees_with_cycle(&self.params.grant_rule(), &group.loops, &members, graph)
+        };
+        if waits && !early() {
             return Ok(PcmUpdate {
                 pending: true,
                 group_size: group.loops.len(),
