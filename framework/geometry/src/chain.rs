@@ -177,8 +177,11 @@ impl OdometryChains {
         let ad = adjoint(&low_link.world_from_sensor.inverse());
         let mut covariance = ad * (high_link.prefix_covariance - low_link.prefix_covariance) * ad.transpose();
         covariance = (covariance + covariance.transpose()) * 0.5;
-        let target_from_source = chain.get(&target.index)?.world_from_sensor.inverse()
-            * chain.get(&source.index)?.world_from_sensor;
+        let (target_link, source_link) = match target.index <= source.index {
+            true => (low_link, high_link),
+            false => (high_link, low_link),
+        };
+        let target_from_source = target_link.world_from_sensor.inverse() * source_link.world_from_sensor;
         if target.index > source.index {
             // The covariance was accumulated in the low (= source) frame; move it to the target frame.
             let ad = adjoint(&target_from_source);

@@ -130,17 +130,21 @@ fn offsets_through_others(
     members: &[usize],
     graph: &dyn GraphView,
 ) -> Vec<(RobotId, Vec<(f64, f64)>)> {
-    // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b.
-    let placed = placements(loops, members, graph);
     let Some(first) = members.first().and_then(|&k| loops.get(k)) else {
         return Vec::new();
     };
     let (a, b) = (first.target.robot, first.source.robot);
+    // The frames through others first: without them the members' placements are not needed.
+    let through = graph.frames_through_others(a, b);
+    if through.is_empty() {
+        return Vec::new();
+    }
+    // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b.
+    let placed = placements(loops, members, graph);
     if placed.is_empty() {
         return Vec::new();
     }
-    graph
-        .frames_through_others(a, b)
+    through
         .into_iter()
         .map(|(via, through)| {
             let offsets = placed
