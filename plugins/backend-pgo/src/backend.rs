@@ -354,6 +354,21 @@ impl Backend for PgoBackend {
 }
 
 impl PgoBackend {
+    /// GNC from scratch over the whole subgraph (every label settled anew), remembered as the full run
+    /// that warm starts build on.
+    fn full_gnc_run(
+        &mut self,
+        subgraph: &mut crate::distributed::Subgraph,
+        gnc: &GncSettings,
+        loop_count: usize,
+        nominal: f64,
+    ) -> PluginResult<crate::gnc::GncOutcome> {
+        let outcome = gnc_tls(&mut subgraph.problem, gnc, &mut self.cache)?;
+        self.memory
+            .full_run(loop_count, strict_threshold(&outcome, nominal));
+        Ok(outcome)
+    }
+
     /// Solves `subgraph` (holding `loop_count` loops) from the current estimate, by GNC (warm when the
     /// memory allows) or by Levenberg-Marquardt with the configured kernel, and remembers the outcome.
     fn solve(
@@ -393,12 +408,13 @@ impl PgoBackend {
                     // A new loop the warm run rejects may be the one that overturns the consensus the
                     // warm start stands on (a long loop closing far from where the estimate has drifted
                     // to): the labels are then settled again by a full run.
-                    let rejects_new_loop = earlier
-                        .iter()
-                        .zip(&subgraph.factor_loops)
-                        .zip(&warm.weights)
-                        .any(|((before, id), weight)| id.is_some() && before.is_none() && *weight < 0.5);
-                    match rejects_new_loop && self.config.full_run_on_rejected_new_loop {
+                    let rejects_new_loop =
+                        || {
+                            earlier.iter().zip(&subgraph.factor_loops).zip(&warm.weights).any(
+                                |((before, id), weight)| id.is_some() && before.is_none() && *weight < 0.5,
+                            )
+                        };
+                    match self.config.full_run_on_rejected_new_loop && rejects_new_loop() {
                         true => self.full_gnc_run(subgraph, &gnc, loop_count, nominal)?,
                         false => warm,
                     }
@@ -424,23 +440,6 @@ impl PgoBackend {
         self.memory.changed = !report.converged;
         self.memory.last_report = report.clone();
         Ok(report)
-    }
-}
-
-impl PgoBackend {
-    /// GNC from scratch over the whole subgraph (every label settled anew), remembered as the full run
-    /// that warm starts build on.
-    fn full_gnc_run(
-        &mut self,
-        subgraph: &mut crate::distributed::Subgraph,
-        gnc: &GncSettings,
-        loop_count: usize,
-        nominal: f64,
-    ) -> PluginResult<crate::gnc::GncOutcome> {
-        let outcome = gnc_tls(&mut subgraph.problem, gnc, &mut self.cache)?;
-        self.memory
-            .full_run(loop_count, strict_threshold(&outcome, nominal));
-        Ok(outcome)
     }
 }
 

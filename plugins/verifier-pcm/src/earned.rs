@@ -96,12 +96,10 @@ pub(crate) fn judge(
     refuted: &BTreeSet<usize>,
     graph: &dyn GraphView,
 ) -> Option<Withheld> {
-    let enough_m = rule.min_spread_m;
-    let spread_m = spread_m(members.iter().map(|&k| loops[k].target), graph, enough_m).min(spread_m(
-        members.iter().map(|&k| loops[k].source),
-        graph,
-        enough_m,
-    ));
+    let targets = members.iter().map(|&k| loops[k].target);
+    let sources = members.iter().map(|&k| loops[k].source);
+    let spread_m =
+        spread_m(targets, graph, rule.min_spread_m).min(spread_m(sources, graph, rule.min_spread_m));
     if spread_m < rule.min_spread_m {
         return Some(Withheld::Clustered { spread_m });
     }

@@ -117,8 +117,12 @@ pub(crate) fn predicted_overlaps(
     if rule.radius_m <= 0.0 {
         return predicted;
     }
-    // A host that cannot compare the set's own keyframes compares none: nothing to predict with.
-    if graph.looks_alike(first.target, first.source).is_none() {
+    // A host that cannot compare the keyframes of any of the set's loops has no descriptors to compare
+    // (the replay of a recorded problem): nothing to predict with, and the routes need not be laid out.
+    if members
+        .iter()
+        .all(|&k| graph.looks_alike(loops[k].target, loops[k].source).is_none())
+    {
         return predicted;
     }
     let (a, b) = (first.target.robot, first.source.robot);

@@ -230,6 +230,30 @@ fn solved_in_two_steps(
     (backend, report)
 }
 
+/// Solves every one of `loops` at once, from the odometry; returns the backend and its report.
+fn solved_at_once<'a>(
+    config: PgoConfig,
+    loops: impl IntoIterator<Item = &'a LoopClosure>,
+) -> (PgoBackend, skid_core::slots::OptimizeReport) {
+    let mut backend = two_robot_backend(config);
+    for closure in loops {
+        backend.add_loop(closure.clone()).unwrap();
+    }
+    let report = backend.optimize(OptimizeBudget::default()).unwrap();
+    (backend, report)
+}
+
+/// Asserts that every pose of `backend` is within a millimetre of `full`'s (`what` names the run).
+fn assert_ends_where(backend: &PgoBackend, full: &PgoBackend, what: &str) {
+    for (k, (a, b)) in all_poses(backend).iter().zip(all_poses(full)).enumerate() {
+        let difference = (a.inverse() * b).translation.vector.norm();
+        assert!(
+            difference < 1e-3,
+            "{what}pose {k}: {difference} m from the full run"
+        );
+    }
+}
+
 #[test]
 fn gnc_warm_started_from_the_last_solution_ends_where_a_full_run_does() {
     // The warm path alone: no full run when it rejects a new loop.
@@ -259,15 +283,8 @@ fn gnc_warm_started_from_the_last_solution_ends_where_a_full_run_does() {
     }
     let warm = incremental.optimize(OptimizeBudget::default()).unwrap();
     assert!(warm.converged, "{warm:?}");
-    let mut full = two_robot_backend(gnc());
-    for closure in first.iter().chain(&second) {
-        full.add_loop(closure.clone()).unwrap();
-    }
-    let full_report = full.optimize(OptimizeBudget::default()).unwrap();
-    for (k, (a, b)) in all_poses(&incremental).iter().zip(all_poses(&full)).enumerate() {
-        let difference = (a.inverse() * b).translation.vector.norm();
-        assert!(difference < 1e-3, "pose {k}: {difference} m from the full run");
-    }
+    let (full, full_report) = solved_at_once(gnc(), first.iter().chain(&second));
+    assert_ends_where(&incremental, &full, "");
     assert!(pair_error_m(&incremental, &[(10, 10), (6, 7), (12, 12)]) < 0.1);
     assert!(
         warm.iterations < full_report.iterations,
@@ -287,11 +304,7 @@ fn a_warm_run_that_rejects_a_new_loop_is_settled_again_by_a_full_run() {
     let (first, second) = first_and_second_loops();
     let (warm, warm_report) = solved_in_two_steps(gnc(false), &first, &second);
     let (settled, settled_report) = solved_in_two_steps(gnc(true), &first, &second);
-    let mut full = two_robot_backend(gnc(true));
-    for closure in first.iter().chain(&second) {
-        full.add_loop(closure.clone()).unwrap();
-    }
-    let full_report = full.optimize(OptimizeBudget::default()).unwrap();
+    let (full, full_report) = solved_at_once(gnc(true), first.iter().chain(&second));
     // The two wrong loops are rejected by the warm run, so the labels were settled by a full run: the
     // same work as a full run from scratch, where the warm run alone did less.
     assert_eq!(settled.rejected_loops(), vec![LoopId(23), LoopId(24)]);
@@ -301,10 +314,7 @@ fn a_warm_run_that_rejects_a_new_loop_is_settled_again_by_a_full_run() {
         settled_report.iterations >= full_report.iterations,
         "{settled_report:?}"
     );
-    for (k, (a, b)) in all_poses(&settled).iter().zip(all_poses(&full)).enumerate() {
-        let difference = (a.inverse() * b).translation.vector.norm();
-        assert!(difference < 1e-3, "pose {k}: {difference} m from the full run");
-    }
+    assert_ends_where(&settled, &full, "");
     // With only true new loops, the warm run rejects none and no full run follows.
     let (_, true_only) = solved_in_two_steps(gnc(true), &first, &second[..3]);
     assert!(true_only.iterations < full_report.iterations, "{true_only:?}");
@@ -326,28 +336,11 @@ fn a_warm_run_over_the_new_loops_region_ends_where_a_full_run_does() {
         inter_loop(21, 12, 12),
         inter_loop(22, 18, 17),
     ];
-    let mut full = two_robot_backend(gnc(0));
-    for closure in first.iter().chain(&second) {
-        full.add_loop(closure.clone()).unwrap();
-    }
-    assert!(full.optimize(OptimizeBudget::default()).unwrap().converged);
+    let (full, full_report) = solved_at_once(gnc(0), first.iter().chain(&second));
+    assert!(full_report.converged);
     for hops in [0, 1, 4] {
-        let mut incremental = two_robot_backend(gnc(hops));
-        for closure in &first {
-            incremental.add_loop(closure.clone()).unwrap();
-        }
-        assert!(incremental.optimize(OptimizeBudget::default()).unwrap().converged);
-        for closure in &second {
-            incremental.add_loop(closure.clone()).unwrap();
-        }
-        let warm = incremental.optimize(OptimizeBudget::default()).unwrap();
+        let (incremental, warm) = solved_in_two_steps(gnc(hops), &first, &second);
         assert!(warm.converged, "{hops} hops: {warm:?}");
-        for (k, (a, b)) in all_poses(&incremental).iter().zip(all_poses(&full)).enumerate() {
-            let difference = (a.inverse() * b).translation.vector.norm();
-            assert!(
-                difference < 1e-3,
-                "{hops} hops, pose {k}: {difference} m from the full run"
-            );
-        }
+        assert_ends_where(&incremental, &full, &format!("{hops} hops, "));
     }
 }
