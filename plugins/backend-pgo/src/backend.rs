@@ -17,6 +17,7 @@ use skid_core::{KeyframeId, LoopId, PluginContext, PluginError, PluginResult, Po
 
 use crate::chain::{Chains, Step};
 use crate::distributed::{Prior, Scope, active_loops, align_peers, build, write_back};
+use crate::error::PgoError;
 use crate::g2o_file::{Initialization, RobustMode};
 use crate::gnc::{GncSettings, gnc_tls, gnc_tls_warm, strict_threshold};
 use crate::group::PoseGroup;
@@ -299,7 +300,7 @@ impl Backend for PgoBackend {
                 ..OptimizeReport::default()
             });
         }
-        let loops = active_loops(&self.loops, scope);
+        let loops = active_loops(&self.loops);
         if scope == Scope::Full {
             // A centralised solve aligns every robot reachable from the first one.
             if let Some(first) = self.poses.keys().next() {
@@ -314,7 +315,18 @@ impl Backend for PgoBackend {
         }
         align_peers(&mut self.poses, &mut self.aligned, &loops);
         let robust = self.config.robust != RobustMode::None;
-        let mut subgraph = build(&self.poses, &self.chains, &loops, &self.priors, scope, robust)?;
+        let mut subgraph = match build(&self.poses, &self.chains, &loops, &self.priors, scope, robust) {
+            Ok(subgraph) => subgraph,
+            // A distributed graph that holds only peers' keyframes (the fleet's loops arrived before
+            // this robot's first keyframe), none of them touched by a loop yet: nothing to solve.
+            Err(PgoError::Empty(_)) if scope != Scope::Full => {
+                return Ok(OptimizeReport {
+                    converged: true,
+                    ..OptimizeReport::default()
+                });
+            }
+            Err(error) => return Err(error.into()),
+        };
         // Nothing the last converged solution does not account for: it is still the optimum (see
         // `crate::incremental`); only the peers' keyframes are placed again below.
         let solved = self.memory.changed;

@@ -3,6 +3,9 @@
 //! joined by that robot's odometry composed between them (one factor per consecutive pair of touched
 //! keyframes, its information the inverse of the composed covariance).
 //!
+//! With the fleet's loops shared (`loops.fleet_loops`), the loops between peers and the peers' own
+//! loops touch peer keyframes the same way (Swarm-SLAM's fleet graph, condensed as above).
+//!
 //! Before a peer is first connected, its keyframes are in its own odometry frame; the first loop that
 //! reaches it from an aligned robot moves all of them rigidly into α's frame (`T_q ← T_c · z_cq`), so
 //! that Levenberg-Marquardt starts near the solution.
@@ -46,15 +49,12 @@ pub struct Subgraph {
     pub factor_loops: Vec<Option<skid_core::LoopId>>,
 }
 
-/// The loops an optimisation uses: all of them, or those with an endpoint on `own`.
-pub fn active_loops(loops: &BTreeMap<skid_core::LoopId, LoopClosure>, scope: Scope) -> Vec<&LoopClosure> {
-    loops
-        .values()
-        .filter(|l| match scope {
-            Scope::Full => true,
-            Scope::Distributed { own } => l.target.robot == own || l.source.robot == own,
-        })
-        .collect()
+/// The loops an optimisation uses: every loop the graph holds. A distributed graph holds the loops
+/// with an endpoint on its own robot, unless the host shares the fleet's loops with it
+/// (`loops.fleet_loops`): then loops between peers, and a peer's own loops, join the subgraph the same
+/// way, touching the peer keyframes they join, and place a peer that no own loop reaches.
+pub fn active_loops(loops: &BTreeMap<skid_core::LoopId, LoopClosure>) -> Vec<&LoopClosure> {
+    loops.values().collect()
 }
 
 /// Moves peers that active loops connect to an aligned robot into the aligned frame; returns the robots
