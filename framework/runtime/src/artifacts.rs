@@ -72,11 +72,14 @@ pub fn pose_graph(robot: &RobotHost) -> PoseGraph<Pose> {
         }
     }
     // A loop received from a peer before that peer's odometry reached its keyframe has no vertex yet;
-    // it is left out so the file stays a valid graph.
+    // it is left out so the file stays a valid graph. The fleet's loops in the back-end (between other
+    // robots, `loops.fleet_loops`) are edges of the graph too.
     let has_vertex = |id: KeyframeId| graph.vertices.contains_key(&g2o_vertex_id(id));
+    let fleet_loops = robot.fleet_loops_in_graph();
     let drawable: Vec<&LoopClosure> = robot
         .accepted_loops()
         .values()
+        .chain(&fleet_loops)
         .filter(|closure| has_vertex(closure.target) && has_vertex(closure.source))
         .collect();
     for closure in drawable {

@@ -15,7 +15,10 @@ use crate::host::RobotHost;
 /// oversized) is logged: a robot never stops because a peer cannot be reached.
 pub(crate) fn send_all(robot: &mut RobotHost, messages: Vec<Message>) {
     for message in messages {
-        let destination = crate::messages::destination(robot.robot(), &message);
+        let destination = match message {
+            Message::Loops(_) if robot.loops_to_fleet => Destination::AllPeers,
+            _ => crate::messages::destination(robot.robot(), &message),
+        };
         send_to(robot, destination, message);
     }
 }

@@ -126,12 +126,17 @@ fn build_host_fed(
         coarse: build(&registry.coarse, config, &context)?,
         fine: build(&registry.fine, config, &context)?,
         verifier: build(&registry.verifier, config, &context)?,
+        fleet_verifier: match config.loops.fleet_loops {
+            true => build(&registry.verifier, config, &context)?,
+            false => None,
+        },
         backend: build(&registry.backend, config, &context)?,
         transport: build(&registry.transport, config, &context)?,
     };
     let protocol = ProtocolEndpoint::new(robot, session, ProtocolConfig::default());
     let mut host = RobotHost::new(robot, plugins, protocol, clock);
     host.feed = feed;
+    host.loops_to_fleet = config.loops.fleet_loops;
     Ok(host)
 }
 

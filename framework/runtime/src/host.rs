@@ -28,6 +28,7 @@ mod admission;
 mod announced;
 mod backend_book;
 mod candidate_queue;
+mod fleet_loops;
 mod frame_book;
 mod loop_book;
 mod loops;
@@ -65,6 +66,9 @@ pub struct Plugins {
     pub coarse: Option<Box<dyn CoarseRegistration>>,
     pub fine: Option<Box<dyn FineRegistration>>,
     pub verifier: Option<Box<dyn Verifier>>,
+    /// A second instance of the verifier, for the loops peers found between other robots
+    /// (`loops.fleet_loops`); `None` otherwise.
+    pub fleet_verifier: Option<Box<dyn Verifier>>,
     pub backend: Option<Box<dyn Backend>>,
     pub transport: Option<Box<dyn Transport>>,
 }
@@ -105,6 +109,10 @@ pub struct RobotHost {
     frames: FrameBook,
     /// The own inter-robot loops told to each peer, and when they are stated again.
     announced: Announced,
+    /// Loops peers found that do not join this robot (`loops.fleet_loops`).
+    fleet_loops: fleet_loops::FleetLoopBook,
+    /// Every `Loops` message goes to every peer (`loops.fleet_loops`), not only to the one it concerns.
+    pub(crate) loops_to_fleet: bool,
     /// When this robot's frames are next sent again after a change.
     frame_repeats: Repeats<()>,
     stage_ms: BTreeMap<&'static str, f64>,
@@ -143,6 +151,8 @@ impl RobotHost {
             graph: BackendBook::default(),
             frames: FrameBook::default(),
             announced: Announced::default(),
+            fleet_loops: fleet_loops::FleetLoopBook::default(),
+            loops_to_fleet: false,
             frame_repeats: Repeats::default(),
             stage_ms: BTreeMap::new(),
             prior_session_robots: Vec::new(),
@@ -340,12 +350,14 @@ impl RobotHost {
 
     /// The loop counters with the accepted, rejected, undecided and awaiting counts as they stand now.
     pub fn loop_stats(&self) -> LoopStats {
-        self.loops.stats(loop_book::BudgetFigures {
+        let mut stats = self.loops.stats(loop_book::BudgetFigures {
             queued: self.candidates.len(),
             expired: self.candidates.expired(),
             admitted: self.candidates.admitted(),
             awaiting_cloud: self.peer_clouds.waiting(),
-        })
+        });
+        (stats.fleet_loops_held, stats.fleet_loops_in_graph) = self.fleet_loop_counts();
+        stats
     }
 
     pub(crate) fn plugin_error(

@@ -17,6 +17,7 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use skid_config::ConfigSources;
+use skid_core::slots::LoopClosure;
 use skid_core::{KeyframeId, RobotId};
 use skid_protocol::{
     Capabilities, InformationMsg, LoopMsg, Loops, Message, PeerStatus, PoseMsg, ProtocolConfig,
@@ -355,12 +356,12 @@ fn forged_loops() -> Message {
     })
 }
 
-#[test]
-fn loops_a_peer_forged_do_not_enter_the_receivers_graph() {
-    let mut attacked = fleet(&[]);
+/// Runs a fleet (`extra` settings) into which `forged` reaches robot 0 as if from robot 2, 40 rounds in.
+fn run_with_forgery(extra: &[&str], forged: &Message) -> (Fleet, RunSummary) {
+    let mut attacked = fleet(extra);
     let hub = loopback_hub(&attacked).clone();
     let mut forger = ProtocolEndpoint::new(RobotId(2), 79, ProtocolConfig::default());
-    let forged = forger.encode(&forged_loops()).unwrap();
+    let forged = forger.encode(forged).unwrap();
     let mut round = 0;
     let summary = attacked
         .run_lockstep(|_| {
@@ -370,14 +371,23 @@ fn loops_a_peer_forged_do_not_enter_the_receivers_graph() {
             }
         })
         .unwrap();
-    assert_complete_without_duplicates(&attacked, &summary);
-    let robot_0 = &attacked.robots[0];
-    let far: Vec<_> = robot_0
-        .accepted_loops()
-        .values()
+    (attacked, summary)
+}
+
+/// The keyframe pairs of the loops that claim more than 10 m between their keyframes.
+fn farther_than_10_m<'a>(loops: impl Iterator<Item = &'a LoopClosure>) -> Vec<(KeyframeId, KeyframeId)> {
+    loops
         .filter(|l| l.target_from_source.translation.vector.norm() > 10.0)
         .map(|l| (l.target, l.source))
-        .collect();
+        .collect()
+}
+
+#[test]
+fn loops_a_peer_forged_do_not_enter_the_receivers_graph() {
+    let (attacked, summary) = run_with_forgery(&[], &forged_loops());
+    assert_complete_without_duplicates(&attacked, &summary);
+    let robot_0 = &attacked.robots[0];
+    let far = farther_than_10_m(robot_0.accepted_loops().values());
     assert!(far.is_empty(), "forged loops in robot 0's graph: {far:?}");
     let stats = robot_0.loop_stats();
     assert!(
@@ -386,6 +396,31 @@ fn loops_a_peer_forged_do_not_enter_the_receivers_graph() {
     );
     // Robot 0 still joins robot 2 through the loops they found.
     assert!(involving(&inter_loops(&attacked, 0), 2) >= 3);
+}
+
+#[test]
+fn loops_a_peer_forged_between_itself_and_a_third_robot_stay_out_of_the_receivers_graph() {
+    // Under `fleet_loops` a robot also holds loops between other robots; its fleet verifier judges
+    // them as its own verifier judges a peer's loops with it.
+    let Message::Loops(mut loops) = forged_loops() else {
+        unreachable!()
+    };
+    for forged in &mut loops.accepted {
+        forged.target.robot = RobotId(1);
+    }
+    let (attacked, summary) = run_with_forgery(
+        &["run.max_scans=120", "loops.fleet_loops=true"],
+        &Message::Loops(loops),
+    );
+    let far = farther_than_10_m(attacked.robots[0].fleet_loops_in_graph().iter());
+    assert!(far.is_empty(), "forged loops in robot 0's graph: {far:?}");
+    let stats = &summary.robots[0].loops;
+    assert!(
+        stats.fleet_loops_held >= stats.fleet_loops_in_graph + 6,
+        "the forged loops were not held and judged: {stats:?}"
+    );
+    // The forged set also holds back the true loops of robots 1 and 2 here (neither set dominates the
+    // other): a forger can delay a merge, not move a map.
 }
 
 /// Runs with robot 2 cut off from everyone from round `from` until round `until` (never restored when
@@ -552,5 +587,47 @@ fn clouds_crossed_each_link_once_and_the_budget_held(fleet: &Fleet, summary: &Ru
     assert!(
         summary.robots.iter().any(|robot| robot.clouds_served.sent > 0),
         "no cloud was served at all"
+    );
+}
+
+#[test]
+fn under_fleet_loops_each_robot_holds_the_loops_between_the_others() {
+    let scans = 120;
+    let mut fleet = fleet(&[&format!("run.max_scans={scans}"), "loops.fleet_loops=true"]);
+    let summary = fleet.run_lockstep(|_| {}).unwrap();
+    let mut shared = 0;
+    for (me, robot) in fleet.robots.iter().enumerate() {
+        let me = RobotId(me as u32);
+        let held: BTreeSet<(KeyframeId, KeyframeId)> = robot
+            .fleet_loops_in_graph()
+            .iter()
+            .map(|l| (l.target.min(l.source), l.target.max(l.source)))
+            .collect();
+        assert!(
+            held.iter().all(|(a, b)| a.robot != me && b.robot != me),
+            "robot {me} holds one of its own loops as the fleet's: {held:?}"
+        );
+        // Every loop the other robots hold between themselves reached this robot's graph.
+        for other in (0..fleet.robots.len()).filter(|&other| other != me.0 as usize) {
+            let between_others: BTreeSet<(KeyframeId, KeyframeId)> = fleet.robots[other]
+                .accepted_loops()
+                .values()
+                .filter(|l| l.target.robot != me && l.source.robot != me)
+                .map(|l| (l.target.min(l.source), l.target.max(l.source)))
+                .collect();
+            let missing: Vec<_> = between_others.difference(&held).collect();
+            assert!(
+                missing.is_empty(),
+                "robot {me} lacks robot {other}'s loops {missing:?}"
+            );
+            shared += between_others.len();
+        }
+        let stats = &summary.robots[me.0 as usize].loops;
+        assert_eq!(stats.fleet_loops_in_graph, held.len(), "{stats:?}");
+        assert!(stats.fleet_loops_held >= stats.fleet_loops_in_graph);
+    }
+    assert!(
+        shared > 0,
+        "no robot held a loop between two others: nothing was tested"
     );
 }

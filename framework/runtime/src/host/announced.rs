@@ -1,7 +1,8 @@
-//! What this robot told each peer about the inter-robot loops it found with that peer: the pairs it
-//! retracted (the accepted ones are in the loop book) and when the peer's state is next repeated (see
-//! `repeats`). A repeat states the whole current set, accepted and retracted, so a peer that lost any
-//! earlier message ends with the same loops as the sender.
+//! What this robot told each peer about the inter-robot loops it found with that peer (or, with
+//! `loops.fleet_loops`, the whole fleet about every loop it found): the pairs it retracted (the accepted
+//! ones are in the loop book) and when the audience's state is next repeated (see `repeats`). A repeat
+//! states the whole current set, accepted and retracted, so a peer that lost any earlier message ends
+//! with the same loops as the sender.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -12,32 +13,41 @@ use super::repeats::Repeats;
 /// A loop's keyframe pair, `(target, source)`.
 pub(crate) type Pair = (KeyframeId, KeyframeId);
 
-/// The own loops announced to each peer.
+/// Who a set of own loops is stated to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum Audience {
+    /// The one peer the loops join this robot with.
+    Peer(RobotId),
+    /// Every peer (`loops.fleet_loops`): every loop this robot found, its intra-robot ones too.
+    Fleet,
+}
+
+/// The own loops announced to each audience.
 #[derive(Debug, Default)]
 pub(crate) struct Announced {
-    retracted: BTreeMap<RobotId, BTreeSet<Pair>>,
-    repeats: Repeats<RobotId>,
+    retracted: BTreeMap<Audience, BTreeSet<Pair>>,
+    repeats: Repeats<Audience>,
 }
 
 impl Announced {
-    /// A loop with `peer` was announced as accepted at `now_nanos`.
-    pub(crate) fn accepted(&mut self, peer: RobotId, pair: Pair, now_nanos: u64) {
-        if let Some(retracted) = self.retracted.get_mut(&peer) {
+    /// A loop was announced to `audience` as accepted at `now_nanos`.
+    pub(crate) fn accepted(&mut self, audience: Audience, pair: Pair, now_nanos: u64) {
+        if let Some(retracted) = self.retracted.get_mut(&audience) {
             retracted.remove(&pair);
         }
-        self.repeats.changed(peer, now_nanos);
+        self.repeats.changed(audience, now_nanos);
     }
 
-    /// A loop with `peer` was announced as retracted at `now_nanos`.
-    pub(crate) fn retracted(&mut self, peer: RobotId, pair: Pair, now_nanos: u64) {
-        self.retracted.entry(peer).or_default().insert(pair);
-        self.repeats.changed(peer, now_nanos);
+    /// A loop was announced to `audience` as retracted at `now_nanos`.
+    pub(crate) fn retracted(&mut self, audience: Audience, pair: Pair, now_nanos: u64) {
+        self.retracted.entry(audience).or_default().insert(pair);
+        self.repeats.changed(audience, now_nanos);
     }
 
-    /// The pairs retracted with `peer`.
-    pub(crate) fn retracted_with(&self, peer: RobotId) -> Vec<Pair> {
+    /// The pairs announced to `audience` as retracted.
+    pub(crate) fn retracted_with(&self, audience: Audience) -> Vec<Pair> {
         self.retracted
-            .get(&peer)
+            .get(&audience)
             .map(|pairs| pairs.iter().copied().collect())
             .unwrap_or_default()
     }
@@ -47,8 +57,8 @@ impl Announced {
         self.repeats.pending()
     }
 
-    /// The peers whose loops are to be stated again at `now_nanos`.
-    pub(crate) fn take_due(&mut self, now_nanos: u64) -> Vec<RobotId> {
+    /// The audiences whose loops are to be stated again at `now_nanos`.
+    pub(crate) fn take_due(&mut self, now_nanos: u64) -> Vec<Audience> {
         self.repeats.take_due(now_nanos)
     }
 }
@@ -68,12 +78,14 @@ mod tests {
     #[test]
     fn a_pair_accepted_again_is_no_longer_stated_as_retracted() {
         let mut announced = Announced::default();
-        announced.retracted(RobotId(1), pair(3), 0);
-        announced.retracted(RobotId(1), pair(4), 0);
-        announced.accepted(RobotId(1), pair(3), 1);
-        assert_eq!(announced.retracted_with(RobotId(1)), vec![pair(4)]);
-        assert!(announced.retracted_with(RobotId(2)).is_empty());
+        let peer = Audience::Peer(RobotId(1));
+        announced.retracted(peer, pair(3), 0);
+        announced.retracted(peer, pair(4), 0);
+        announced.accepted(peer, pair(3), 1);
+        assert_eq!(announced.retracted_with(peer), vec![pair(4)]);
+        assert!(announced.retracted_with(Audience::Peer(RobotId(2))).is_empty());
+        assert!(announced.retracted_with(Audience::Fleet).is_empty());
         assert!(announced.take_due(1).is_empty());
-        assert_eq!(announced.take_due(3_000_000_000), vec![RobotId(1)]);
+        assert_eq!(announced.take_due(3_000_000_000), vec![peer]);
     }
 }

@@ -54,6 +54,10 @@ pub struct LoopStats {
     /// Of `candidates_inter`, those found when a peer's descriptor arrived (against own keyframes the
     /// peer had not seen when it looked for candidates), not by querying a new own keyframe.
     pub inter_on_arrival: usize,
+    /// Loops peers found that do not join this robot, held under `loops.fleet_loops`, and of them those
+    /// in its graph (both robots placed in it).
+    pub fleet_loops_held: usize,
+    pub fleet_loops_in_graph: usize,
 }
 
 impl LoopStats {

@@ -8,6 +8,7 @@ use skid_core::slots::{CoarseAlignment, LoopCandidate, LoopClosure, Verdict, Ver
 use skid_core::{KeyframeId, PluginError, Pose, Slot};
 
 use super::RobotHost;
+use super::announced::Audience;
 use super::loop_book::LoopEvent;
 use super::peer_clouds::PendingCandidate;
 use crate::error::RuntimeError;
@@ -140,11 +141,24 @@ impl RobotHost {
         config: &ResolvedConfig,
         ask: impl FnOnce(&mut dyn Verifier, &HostGraph<'_>) -> R,
     ) -> Option<R> {
+        self.ask_a_verifier(config, false, ask)
+    }
+
+    /// [`Self::ask_verifier`] for the verifier of the fleet's loops (`loops.fleet_loops`) when `fleet`.
+    pub(crate) fn ask_a_verifier<R>(
+        &mut self,
+        config: &ResolvedConfig,
+        fleet: bool,
+        ask: impl FnOnce(&mut dyn Verifier, &HostGraph<'_>) -> R,
+    ) -> Option<R> {
         self.refresh_frames();
         let limit = self.candidate_distance_limit(config);
         let me = self.robot;
-        let verifier = self.plugins.verifier.as_mut()?;
-        let _span = tracing::debug_span!("verifier", robot = %me).entered();
+        let verifier = match fleet {
+            true => self.plugins.fleet_verifier.as_mut()?,
+            false => self.plugins.verifier.as_mut()?,
+        };
+        let _span = tracing::debug_span!("verifier", robot = %me, fleet).entered();
         let book = &self.frames;
         let through = move |a, b| book.through_others(me, a, b);
         let graph = HostGraph {
@@ -180,7 +194,11 @@ impl RobotHost {
         let mut changed = false;
         let mut accepted_messages = Vec::new();
         let mut retracted_messages = Vec::new();
-        // Only this robot's own loops are announced: a loop a peer found is the peer's to share.
+        // Only this robot's own loops are announced: a loop a peer found is the peer's to share. They
+        // go to the one peer each joins, or under `fleet_loops` every own loop goes to every peer.
+        let fleet = config.loops.fleet_loops;
+        let announced =
+            |closure: &LoopClosure, from_peer: bool| (fleet || closure.is_inter_robot()) && !from_peer;
         for id in verdict.retracted {
             if let Some(closure) = self.loops.retract(id) {
                 if let Some(backend) = self.plugins.backend.as_mut() {
@@ -191,7 +209,7 @@ impl RobotHost {
                         source: e,
                     })?;
                 }
-                if closure.is_inter_robot() && !self.loops.is_from_peer(id) {
+                if announced(&closure, self.loops.is_from_peer(id)) {
                     retracted_messages.push(closure);
                 }
                 changed = true;
@@ -202,15 +220,23 @@ impl RobotHost {
                 continue;
             };
             self.add_loop_to_backend(config, &closure)?;
-            if closure.is_inter_robot() && !self.loops.is_from_peer(id) {
+            if announced(&closure, self.loops.is_from_peer(id)) {
                 accepted_messages.push(closure.clone());
             }
             self.loops.accept(closure);
             changed = true;
         }
-        // One message per loop, so each goes to the one peer it concerns; the peer's whole set is
-        // stated again later, in case this one is lost.
+        if changed && fleet {
+            // A peer joined by this verdict may place others through the fleet's loops.
+            self.place_fleet_loops(config)?;
+        }
+        // One message per loop, so each goes to the one peer it concerns (or, under `fleet_loops`, to
+        // every peer); the audience's whole set is stated again later, in case this one is lost.
         let now_nanos = self.now_nanos();
+        let audience = |robot, pair| match fleet {
+            true => Audience::Fleet,
+            false => Audience::Peer(crate::messages::other_robot(robot, pair)),
+        };
         for closure in &accepted_messages {
             outbox.push(crate::messages::loops_message(
                 self.robot,
@@ -218,14 +244,14 @@ impl RobotHost {
                 &[],
             ));
             let pair = (closure.target, closure.source);
-            let peer = crate::messages::other_robot(self.robot, pair);
-            self.announced.accepted(peer, pair, now_nanos);
+            self.announced
+                .accepted(audience(self.robot, pair), pair, now_nanos);
         }
         for closure in &retracted_messages {
             let pair = (closure.target, closure.source);
             outbox.push(crate::messages::loops_message(self.robot, &[], &[pair]));
-            let peer = crate::messages::other_robot(self.robot, pair);
-            self.announced.retracted(peer, pair, now_nanos);
+            self.announced
+                .retracted(audience(self.robot, pair), pair, now_nanos);
         }
         if changed {
             self.optimize(config)?;
@@ -286,14 +312,27 @@ impl RobotHost {
         peer: KeyframeId,
         own_from_peer: &Pose,
     ) -> Result<(), RuntimeError> {
-        let Some(peer_odometry) = self.chains.pose(peer) else {
-            return Ok(());
-        };
         let Some(own_pose) = self.keyframe_pose(own.index) else {
             return Ok(());
         };
+        self.place_peer_chain(config, own_pose, peer, own_from_peer)
+    }
+
+    /// Adds every known keyframe of `peer`'s robot to the back-end, placed so that its keyframe `peer`
+    /// sits at `placed_pose * placed_from_peer` (the pose in this robot's graph of the loop's other
+    /// keyframe, and the loop's measurement from it).
+    pub(crate) fn place_peer_chain(
+        &mut self,
+        config: &ResolvedConfig,
+        placed_pose: Pose,
+        peer: KeyframeId,
+        placed_from_peer: &Pose,
+    ) -> Result<(), RuntimeError> {
+        let Some(peer_odometry) = self.chains.pose(peer) else {
+            return Ok(());
+        };
         // world_self_from_world_peer: where the peer's odometry frame sits in this robot's frame.
-        let frame = own_pose * own_from_peer * peer_odometry.inverse();
+        let frame = placed_pose * placed_from_peer * peer_odometry.inverse();
         self.graph.place_peer(peer.robot, frame);
         let chain = self.chains.chain(peer.robot);
         for (position, &(index, odometry)) in chain.iter().enumerate() {

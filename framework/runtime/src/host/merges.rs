@@ -100,6 +100,9 @@ impl RobotHost {
         config: &ResolvedConfig,
         outbox: &mut Vec<Message>,
     ) -> Result<(), RuntimeError> {
+        if config.loops.fleet_loops {
+            self.reconsider_fleet_loops(config)?;
+        }
         let Some(verdict) = self.ask_verifier(config, |verifier, graph| verifier.reconsider(graph)) else {
             return Ok(());
         };

@@ -226,20 +226,28 @@ impl RobotHost {
             if self.loops.knows_pair(pair) {
                 continue;
             }
-            if !self.is_shared_loop(from, pair) {
-                continue;
-            }
             let (Some(target_from_source), Some(information)) = (
                 message.target_from_source.to_pose(),
                 message.information.to_information(),
             ) else {
                 continue;
             };
+            if !self.joins_sender_and_me(from, pair) {
+                self.receive_fleet_loop(config, from, pair, target_from_source, information);
+                continue;
+            }
+            if !self.is_shared_loop(from, pair) {
+                continue;
+            }
             let closure = self.loops.new_loop(pair, target_from_source, information);
             self.loops.received(closure.clone());
             self.judge_peer_loop(config, closure, outbox)?;
         }
         for pair in loops.retracted {
+            if !self.joins_sender_and_me(from, pair) {
+                self.retract_fleet_loop(config, from, pair)?;
+                continue;
+            }
             if let Some(id) = self.loops.retract_from_peer(pair)
                 && let Some(backend) = self.plugins.backend.as_mut()
             {
@@ -247,24 +255,23 @@ impl RobotHost {
                 let _ = backend.remove_loop(id);
             }
         }
+        if config.loops.fleet_loops {
+            self.judge_fleet_loops(config)?;
+        }
         self.optimize(config)?;
         outbox.extend(self.frames_message_if_due());
         Ok(())
     }
 
-    /// Whether a loop a peer sent joins the sender and this robot, at a keyframe this robot has; a loop
-    /// between other robots, or naming a keyframe that does not exist here, is refused and counted.
-    fn is_shared_loop(&mut self, from: RobotId, (target, source): (KeyframeId, KeyframeId)) -> bool {
+    /// Whether the loop between `target` and `source` joins `from` and this robot.
+    fn joins_sender_and_me(&self, from: RobotId, (target, source): (KeyframeId, KeyframeId)) -> bool {
         let robots = (target.robot, source.robot);
-        if robots != (self.robot, from) && robots != (from, self.robot) {
-            self.peer_faults.record(
-                self.robot,
-                from,
-                "loop_not_shared",
-                format_args!("a loop {target} ↔ {source} that is not between {from} and this robot"),
-            );
-            return false;
-        }
+        robots == (self.robot, from) || robots == (from, self.robot)
+    }
+
+    /// Whether a loop a peer sent (one joining the sender and this robot) names a keyframe this robot
+    /// has, or may wait for it; past the bound of waiting loops it is refused and counted.
+    fn is_shared_loop(&mut self, from: RobotId, (target, source): (KeyframeId, KeyframeId)) -> bool {
         let own = if target.robot == self.robot {
             target
         } else {
@@ -351,6 +358,9 @@ impl RobotHost {
         }
         for closure in self.loops.take_awaiting_poses() {
             self.judge_peer_loop(config, closure, outbox)?;
+        }
+        if config.loops.fleet_loops {
+            self.judge_fleet_loops(config)?;
         }
         Ok(())
     }
