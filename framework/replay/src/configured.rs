@@ -66,4 +66,8 @@ impl PluginFactory for ConfiguredPlugins<'_> {
         let resolved = self.chosen(Slot::Backend)?;
         resolved.build(&self.registry.backend, &self.context(robot))
     }
+
+    fn fleet_loops(&self) -> bool {
+        self.config.loops.fleet_loops
+    }
 }

@@ -62,7 +62,10 @@ pub struct ReplayReport {
     pub intra: LoopCounts,
     pub inter: LoopCounts,
     pub total_s: f64,
+    /// Every robot's work per event (the fleet's, summed).
     pub updates: UpdateTimes,
+    /// One robot's own work per event it took part in (each robot runs on its own computer).
+    pub robot_updates: UpdateTimes,
 }
 
 impl ReplayReport {
@@ -79,6 +82,7 @@ impl ReplayReport {
             inter,
             total_s: outcome.total_s,
             updates: update_times(&outcome.update_ms),
+            robot_updates: update_times(&outcome.robot_update_ms),
         }
     }
 

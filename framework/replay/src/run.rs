@@ -7,7 +7,11 @@
 //!   measurements in stamp order. A loop goes through the verifier of the robot whose list holds it (the
 //!   one that found it); an accepted inter-robot loop reaches the other robot's back-end at once, with
 //!   the finder's odometry chain when it is the first loop between them, and a retracted one leaves both,
-//!   as `skid run` shares them. Every robot's odometry is known to every verifier as it arrives (robots
+//!   as `skid run` shares them. With `fleet_loops`, as `skid run` under `loops.fleet_loops`, every
+//!   accepted loop (intra-robot ones too) also reaches every other robot, whose second verifier (the
+//!   fleet's loops, pooled by robot pair) judges it on its pose before it enters that robot's back-end;
+//!   a loop its finder retracts leaves every graph. Every robot's odometry is known to every verifier
+//!   as it arrives (robots
 //!   broadcast their chains). After each event the back-ends it changed optimise; the time of the event,
 //!   verifier and back-ends together, is one update.
 //!
@@ -37,6 +41,11 @@ pub enum ReplayMode {
 pub trait PluginFactory {
     fn verifier(&self, robot: RobotId) -> PluginResult<Box<dyn Verifier>>;
     fn backend(&self, robot: RobotId) -> PluginResult<Box<dyn Backend>>;
+    /// Whether an accepted loop reaches every robot's back-end, not only those of the robots it joins
+    /// (`loops.fleet_loops`).
+    fn fleet_loops(&self) -> bool {
+        false
+    }
 }
 
 /// What became of one loop.
@@ -76,8 +85,11 @@ pub struct ReplayOutcome {
     /// Each graph at the end: one per robot, or the one graph in batch mode.
     pub graphs: Vec<RobotGraph>,
     pub loops: BTreeMap<LoopId, LoopFate>,
-    /// Milliseconds of each update (batch: one, the whole solve).
+    /// Milliseconds of each update (batch: one, the whole solve): every robot's work for one event.
     pub update_ms: Vec<f64>,
+    /// Milliseconds of each robot's own share of each update it took part in (its verifiers and its
+    /// back-end; incremental mode): what one robot spends, as each runs on its own computer.
+    pub robot_update_ms: Vec<f64>,
     /// Seconds in the plugins, all updates together.
     pub total_s: f64,
 }
@@ -260,11 +272,13 @@ impl Graph {
         Ok(())
     }
 
-    fn optimize_if_changed(&mut self, budget: OptimizeBudget) -> PluginResult<()> {
-        if std::mem::take(&mut self.changed) {
+    /// Optimises when the graph changed since the last time; returns whether it did.
+    fn optimize_if_changed(&mut self, budget: OptimizeBudget) -> PluginResult<bool> {
+        let changed = std::mem::take(&mut self.changed);
+        if changed {
             self.backend.optimize(budget)?;
         }
-        Ok(())
+        Ok(changed)
     }
 
     fn snapshot(&self, known: &Known) -> RobotGraph {
@@ -349,6 +363,7 @@ fn batch(
         graphs: vec![snapshot],
         loops: fates,
         update_ms: vec![total_s * 1e3],
+        robot_update_ms: vec![total_s * 1e3],
         total_s,
     })
 }
@@ -360,19 +375,31 @@ fn incremental(
 ) -> Result<ReplayOutcome, ReplayError> {
     let mut graphs = Vec::new();
     let mut verifiers = Vec::new();
+    let mut fleet_verifiers = Vec::new();
+    let fleet = factory.fleet_loops();
     for robot in (0..problem.robots.len() as u32).map(RobotId) {
         let fail = |error| plugin_error(robot, error);
         graphs.push(Graph::new(factory.backend(robot).map_err(fail)?, [robot]));
         verifiers.push(factory.verifier(robot).map_err(fail)?);
+        if fleet {
+            fleet_verifiers.push(FleetVerifier {
+                verifier: factory.verifier(robot).map_err(fail)?,
+                submitted: BTreeSet::new(),
+                accepted: BTreeSet::new(),
+            });
+        }
     }
     let mut known = Known::default();
     let mut fates: BTreeMap<LoopId, LoopFate> = BTreeMap::new();
     let mut closures: BTreeMap<LoopId, LoopClosure> = BTreeMap::new();
     let mut update_ms = Vec::with_capacity(problem.events.len());
+    let mut robot_update_ms = Vec::with_capacity(problem.events.len());
     for event in &problem.events {
         let robot = event.robot;
         let fail = |error| plugin_error(robot, error);
         let started = Instant::now();
+        // Each robot's own work in this event, in milliseconds (`None`: it did nothing).
+        let mut robot_ms: Vec<Option<f64>> = vec![None; graphs.len()];
         for item in &event.items {
             known.learn(item);
             match item {
@@ -393,11 +420,22 @@ fn incremental(
                     if !label.potential_outlier {
                         fate.accepted = true;
                         share(&mut graphs, closure, &known).map_err(fail)?;
+                        share_with_fleet(
+                            &mut graphs,
+                            &mut fleet_verifiers,
+                            closure,
+                            &closures,
+                            &known,
+                            &mut robot_ms,
+                        )
+                        .map_err(fail)?;
                         continue;
                     }
                     fate.undecided = true;
                     let verifier = &mut verifiers[robot.0 as usize];
+                    let judged = Instant::now();
                     let verdict = submit(verifier.as_mut(), closure, &known).map_err(fail)?;
+                    add_ms(&mut robot_ms, robot, judged);
                     apply_to_fates(&mut fates, &verdict);
                     for id in &verdict.retracted {
                         for graph in graphs.iter_mut() {
@@ -407,16 +445,29 @@ fn incremental(
                     for id in &verdict.accepted {
                         if let Some(closure) = closures.get(id) {
                             share(&mut graphs, closure, &known).map_err(fail)?;
+                            share_with_fleet(
+                                &mut graphs,
+                                &mut fleet_verifiers,
+                                closure,
+                                &closures,
+                                &known,
+                                &mut robot_ms,
+                            )
+                            .map_err(fail)?;
                         }
                     }
                 }
             }
         }
-        for graph in &mut graphs {
+        for (index, graph) in graphs.iter_mut().enumerate() {
+            let optimised = Instant::now();
             graph.retry_deferred(&known).map_err(fail)?;
-            graph.optimize_if_changed(budget).map_err(fail)?;
+            if graph.optimize_if_changed(budget).map_err(fail)? {
+                add_ms(&mut robot_ms, RobotId(index as u32), optimised);
+            }
         }
         update_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        robot_update_ms.extend(robot_ms.into_iter().flatten());
     }
     weigh(&mut fates, &graphs);
     let snapshots: Vec<RobotGraph> = graphs.iter().map(|graph| graph.snapshot(&known)).collect();
@@ -432,6 +483,7 @@ fn incremental(
         loops: fates,
         total_s: update_ms.iter().sum::<f64>() * 1e-3,
         update_ms,
+        robot_update_ms,
     })
 }
 
@@ -447,6 +499,68 @@ fn share(graphs: &mut [Graph], closure: &LoopClosure, known: &Known) -> PluginRe
         }
     }
     Ok(())
+}
+
+/// An accepted loop goes to every robot it does not join (`fleet_loops`; none when `fleet_verifiers` is
+/// empty): each judges it with its fleet verifier, and the loops that verifier accepts (this one, or
+/// earlier ones it now decides) enter its graph, those it refuses or withdraws leave it.
+fn share_with_fleet(
+    graphs: &mut [Graph],
+    fleet_verifiers: &mut [FleetVerifier],
+    closure: &LoopClosure,
+    closures: &BTreeMap<LoopId, LoopClosure>,
+    known: &Known,
+    robot_ms: &mut [Option<f64>],
+) -> PluginResult<()> {
+    for (robot, (graph, fleet)) in graphs.iter_mut().zip(fleet_verifiers.iter_mut()).enumerate() {
+        let robot = RobotId(robot as u32);
+        if closure.target.robot == robot || closure.source.robot == robot {
+            continue;
+        }
+        let mut entering = Vec::new();
+        if fleet.submitted.insert(closure.id) {
+            let judged = Instant::now();
+            let verdict = submit(fleet.verifier.as_mut(), closure, known)?;
+            add_ms(robot_ms, robot, judged);
+            let refused = verdict
+                .retracted
+                .iter()
+                .chain(verdict.rejected.iter().map(|(id, _)| id));
+            for id in refused {
+                fleet.accepted.remove(id);
+                graph.remove_loop(*id)?;
+            }
+            fleet.accepted.extend(verdict.accepted.iter().copied());
+            entering = verdict.accepted;
+        } else if fleet.accepted.contains(&closure.id) {
+            // Accepted again by its finder after a retraction: this robot's verdict on it stands.
+            entering.push(closure.id);
+        }
+        for id in &entering {
+            if let Some(accepted) = closures.get(id)
+                && !graph.loops.contains_key(id)
+                && !graph.deferred.contains_key(id)
+            {
+                graph.add_loop(accepted, known)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Adds the time since `since` to `robot`'s work in this event.
+fn add_ms(robot_ms: &mut [Option<f64>], robot: RobotId, since: Instant) {
+    if let Some(ms) = robot_ms.get_mut(robot.0 as usize) {
+        *ms = Some(ms.unwrap_or(0.0) + since.elapsed().as_secs_f64() * 1e3);
+    }
+}
+
+/// A robot's verifier of the loops other robots found (`fleet_loops`), and what it was given and
+/// accepted.
+struct FleetVerifier {
+    verifier: Box<dyn Verifier>,
+    submitted: BTreeSet<LoopId>,
+    accepted: BTreeSet<LoopId>,
 }
 
 fn apply_to_fates(fates: &mut BTreeMap<LoopId, LoopFate>, verdict: &Verdict) {

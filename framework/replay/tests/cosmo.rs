@@ -11,9 +11,11 @@ use skid_core::{PluginContext, PluginResult, RobotId};
 use skid_replay::{PluginFactory, ReplayMode, ReplayProblem, ReplayReport};
 use skid_verifier_pcm::{PcmConfig, PcmVerifier};
 
-/// The default configuration's verifier and back-end; `distributed` as each mode needs.
+/// The default configuration's verifier and back-end; `distributed` as each mode needs, and whether
+/// the fleet shares its loops (`loops.fleet_loops`).
 struct Defaults {
     distributed: bool,
+    fleet_loops: bool,
 }
 
 impl PluginFactory for Defaults {
@@ -32,6 +34,10 @@ impl PluginFactory for Defaults {
             ..PluginContext::default()
         };
         Ok(Box::new(PgoBackend::new(config, &context)?))
+    }
+
+    fn fleet_loops(&self) -> bool {
+        self.fleet_loops
     }
 }
 
@@ -74,15 +80,64 @@ fn both_modes_replay_a_real_problem_and_account_for_every_loop() {
     assert_eq!(problem.robots.len(), 3);
     assert_eq!(problem.labels.values().filter(|label| label.outlier).count(), 73);
     for (mode, distributed) in [(ReplayMode::Batch, false), (ReplayMode::Incremental, true)] {
+        // The incremental mode shares the fleet's loops, as `skid run` does by default.
+        let fleet_loops = distributed;
         let outcome = skid_replay::replay(
             &problem,
             mode,
-            &Defaults { distributed },
+            &Defaults {
+                distributed,
+                fleet_loops,
+            },
             OptimizeBudget::default(),
         )
         .unwrap();
         let report = ReplayReport::new(&problem, &outcome);
         check(&report, &problem);
         eprintln!("{}", serde_json::to_string(&report).unwrap());
+    }
+}
+
+#[test]
+fn an_accepted_loop_reaches_every_graph_when_the_fleet_shares_its_loops() {
+    // The first quarter of the recording: enough loops of every kind, a few seconds to replay.
+    let mut problem = problem();
+    problem.events.truncate(problem.events.len() / 4);
+    let inter_robot: std::collections::BTreeMap<_, bool> = problem
+        .events
+        .iter()
+        .flat_map(|event| &event.items)
+        .filter_map(|item| match item {
+            skid_replay::problem::Item::Loop { closure, .. } => Some((closure.id, closure.is_inter_robot())),
+            _ => None,
+        })
+        .collect();
+    for fleet_loops in [false, true] {
+        let plugins = Defaults {
+            distributed: true,
+            fleet_loops,
+        };
+        let outcome = skid_replay::replay(
+            &problem,
+            ReplayMode::Incremental,
+            &plugins,
+            OptimizeBudget::default(),
+        )
+        .unwrap();
+        let mut held = [0_usize; 2];
+        for (id, fate) in outcome.loops.iter().filter(|(_, fate)| fate.accepted) {
+            let inter = inter_robot[id];
+            let robots_joined = if inter { 2 } else { 1 };
+            let expected = if fleet_loops { 3 } else { robots_joined };
+            assert_eq!(
+                fate.held_in, expected,
+                "loop {id:?} (inter-robot: {inter}), fleet_loops = {fleet_loops}"
+            );
+            held[usize::from(inter)] += 1;
+        }
+        assert!(
+            held[0] > 0 && held[1] > 0,
+            "intra and inter loops accepted: {held:?}"
+        );
     }
 }

@@ -73,6 +73,13 @@ fn report_text(report: &ReplayReport) -> String {
         report.updates.max_ms,
         report.updates.updates
     );
+    if report.mode == "incremental" {
+        let own = &report.robot_updates;
+        text.push_str(&format!(
+            "  one robot's own share (its verifiers and back-end): median {:.2} ms, p95 {:.2} ms, max {:.1} ms over {}\n",
+            own.median_ms, own.p95_ms, own.max_ms, own.updates
+        ));
+    }
     let mut table = Table::new(&[
         "robot",
         "keyframes",
