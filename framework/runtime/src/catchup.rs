@@ -1,6 +1,7 @@
 //! What a robot running in its own process has told its peers, kept so that a peer that joins late or
 //! comes back after a restart (a new protocol session) can be brought up to date: the robot's odometry
-//! chain, its descriptors and the inter-robot loops it accepted with that peer. In the SKiD-SLAM
+//! chain, its descriptors and the inter-robot loops it accepted with that peer (every loop it announced,
+//! when it shares the fleet's loops). In the SKiD-SLAM
 //! pipeline (Sec. III) descriptors and chains are broadcast once per keyframe; on a real network a peer
 //! that was not listening then would never learn them, and would find no loops with this robot.
 //!
@@ -20,23 +21,26 @@ pub const REPLAY_BATCH: usize = 128;
 pub struct CatchUp {
     chain: Vec<OdomChain>,
     descriptors: Vec<DescriptorBatch>,
-    loops: Vec<(RobotId, Message)>,
+    /// `Loops` messages and the peer each went to (`None`: every peer).
+    loops: Vec<(Option<RobotId>, Message)>,
     /// Peer descriptors already handed to the index (replays from peers repeat them).
     seen_descriptors: BTreeSet<KeyframeId>,
 }
 
 impl CatchUp {
-    /// Remembers the messages `robot` is about to send that a late peer would need.
-    pub fn record(&mut self, robot: RobotId, outbox: &[Message]) {
+    /// Remembers the messages `robot` is about to send that a late peer would need; `loops_to_fleet`
+    /// when its `Loops` messages go to every peer (`loops.fleet_loops`).
+    pub fn record(&mut self, robot: RobotId, outbox: &[Message], loops_to_fleet: bool) {
         for message in outbox {
             match message {
                 Message::OdomChain(chain) if chain.robot == robot => self.chain.push(chain.clone()),
                 Message::Descriptors(batch) if batch.robot == robot => self.descriptors.push(batch.clone()),
+                Message::Loops(_) if loops_to_fleet => self.loops.push((None, message.clone())),
                 Message::Loops(_) => {
                     if let skid_core::slots::Destination::Robot(peer) =
                         crate::messages::destination(robot, message)
                     {
-                        self.loops.push((peer, message.clone()));
+                        self.loops.push((Some(peer), message.clone()));
                     }
                 }
                 _ => {}
@@ -85,7 +89,7 @@ impl CatchUp {
         messages.extend(
             self.loops
                 .iter()
-                .filter(|(to, _)| *to == peer)
+                .filter(|(to, _)| to.is_none_or(|to| to == peer))
                 .map(|(_, message)| message.clone()),
         );
         messages
@@ -143,7 +147,7 @@ mod tests {
         let robot = RobotId(1);
         let mut catch_up = CatchUp::default();
         for index in 0..300 {
-            catch_up.record(robot, &[chain(robot, index), descriptor(robot, index)]);
+            catch_up.record(robot, &[chain(robot, index), descriptor(robot, index)], false);
         }
         let replay = catch_up.replay_for(RobotId(0));
         let chains: Vec<&OdomChain> = replay
@@ -190,7 +194,7 @@ mod tests {
                 edges: vec![edge; (index - from_index) as usize],
                 world_from_first: PoseMsg::from_pose(&Pose::identity()),
             });
-            catch_up.record(robot, &[message]);
+            catch_up.record(robot, &[message], false);
         }
         let replay = catch_up.replay_for(RobotId(0));
         let [Message::OdomChain(chain)] = replay.as_slice() else {
@@ -199,6 +203,39 @@ mod tests {
         assert_eq!((chain.from_index, chain.to_index), (0, 9));
         assert_eq!(chain.edges.len(), 9);
         Message::OdomChain(chain.clone()).validate().unwrap();
+    }
+
+    #[test]
+    fn loops_go_to_the_peer_they_join_or_to_every_peer_when_the_fleet_shares_them() {
+        let (me, peer, third) = (RobotId(0), RobotId(1), RobotId(2));
+        let closure = skid_core::slots::LoopClosure {
+            id: skid_core::LoopId(1),
+            target: KeyframeId::new(0, 4),
+            source: KeyframeId::new(1, 7),
+            target_from_source: Pose::identity(),
+            information: skid_core::Information::identity(),
+        };
+        let message = crate::messages::loops_message(me, std::slice::from_ref(&closure), &[]);
+        let is_loops =
+            |replay: Vec<Message>| replay.iter().filter(|m| matches!(m, Message::Loops(_))).count();
+        let mut pair_only = CatchUp::default();
+        pair_only.record(me, std::slice::from_ref(&message), false);
+        assert_eq!(
+            (
+                is_loops(pair_only.replay_for(peer)),
+                is_loops(pair_only.replay_for(third))
+            ),
+            (1, 0)
+        );
+        let mut fleet = CatchUp::default();
+        fleet.record(me, std::slice::from_ref(&message), true);
+        assert_eq!(
+            (
+                is_loops(fleet.replay_for(peer)),
+                is_loops(fleet.replay_for(third))
+            ),
+            (1, 1)
+        );
     }
 
     #[test]

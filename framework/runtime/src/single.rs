@@ -174,7 +174,7 @@ impl SingleRobot {
             let (scans, optimizations) = (robot.scans().len(), robot.optimizations());
             robot.finished = !robot.step(config, &mut outbox)?;
             self.fleet.observers.after_step(robot, scans, optimizations);
-            self.catch_up.record(robot.robot(), &outbox);
+            self.catch_up.record(robot.robot(), &outbox, robot.loops_to_fleet);
             send_all(robot, outbox);
         }
         let stamp = robot.scans().last().map_or(0, |scan| scan.stamp_nanos);
