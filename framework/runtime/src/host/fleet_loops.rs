@@ -423,7 +423,11 @@ mod tests {
         assert_eq!(book.counts(), (1, 0));
         book.accepted(id);
         book.entered(loop_12);
-        assert_eq!(book.retract(other, loop_12), None, "only the finder retracts its loop");
+        assert_eq!(
+            book.retract(other, loop_12),
+            None,
+            "only the finder retracts its loop"
+        );
         assert_eq!(book.counts(), (1, 1));
         assert_eq!(book.retract(from, loop_12), Some(id));
         assert_eq!(book.counts(), (0, 0));
