@@ -417,35 +417,27 @@ fn incremental(
                 Item::Loop { closure, label } => {
                     closures.insert(closure.id, closure.clone());
                     let fate = fates.entry(closure.id).or_default();
-                    if !label.potential_outlier {
-                        fate.accepted = true;
-                        share(&mut graphs, closure, &known).map_err(fail)?;
-                        share_with_fleet(
-                            &mut graphs,
-                            &mut fleet_verifiers,
-                            closure,
-                            &closures,
-                            &known,
-                            &mut robot_ms,
-                        )
-                        .map_err(fail)?;
-                        continue;
-                    }
-                    fate.undecided = true;
-                    let verifier = &mut verifiers[robot.0 as usize];
-                    let judged = Instant::now();
-                    let verdict = submit(verifier.as_mut(), closure, &known).map_err(fail)?;
-                    add_ms(&mut robot_ms, robot, judged);
-                    apply_to_fates(&mut fates, &verdict);
-                    for id in &verdict.retracted {
-                        for graph in graphs.iter_mut() {
-                            graph.remove_loop(*id).map_err(fail)?;
+                    let entering = if label.potential_outlier {
+                        fate.undecided = true;
+                        let verifier = &mut verifiers[robot.0 as usize];
+                        let judged = Instant::now();
+                        let verdict = submit(verifier.as_mut(), closure, &known).map_err(fail)?;
+                        add_ms(&mut robot_ms, robot, judged);
+                        apply_to_fates(&mut fates, &verdict);
+                        for id in &verdict.retracted {
+                            for graph in graphs.iter_mut() {
+                                graph.remove_loop(*id).map_err(fail)?;
+                            }
                         }
-                    }
-                    for id in &verdict.accepted {
+                        verdict.accepted
+                    } else {
+                        // A known inlier is not submitted.
+                        fate.accepted = true;
+                        vec![closure.id]
+                    };
+                    for id in &entering {
                         if let Some(closure) = closures.get(id) {
-                            share(&mut graphs, closure, &known).map_err(fail)?;
-                            share_with_fleet(
+                            share_accepted(
                                 &mut graphs,
                                 &mut fleet_verifiers,
                                 closure,
@@ -501,10 +493,11 @@ fn share(graphs: &mut [Graph], closure: &LoopClosure, known: &Known) -> PluginRe
     Ok(())
 }
 
-/// An accepted loop goes to every robot it does not join (`fleet_loops`; none when `fleet_verifiers` is
-/// empty): each judges it with its fleet verifier, and the loops that verifier accepts (this one, or
-/// earlier ones it now decides) enter its graph, those it refuses or withdraws leave it.
-fn share_with_fleet(
+/// An accepted loop enters the graphs of the robots it joins ([`share`]) and goes to every other robot
+/// (`fleet_loops`; none when `fleet_verifiers` is empty): each judges it with its fleet verifier, and
+/// the loops that verifier accepts (this one, or earlier ones it now decides) enter its graph, those it
+/// refuses or withdraws leave it.
+fn share_accepted(
     graphs: &mut [Graph],
     fleet_verifiers: &mut [FleetVerifier],
     closure: &LoopClosure,
@@ -512,6 +505,7 @@ fn share_with_fleet(
     known: &Known,
     robot_ms: &mut [Option<f64>],
 ) -> PluginResult<()> {
+    share(graphs, closure, known)?;
     for (robot, (graph, fleet)) in graphs.iter_mut().zip(fleet_verifiers.iter_mut()).enumerate() {
         let robot = RobotId(robot as u32);
         if closure.target.robot == robot || closure.source.robot == robot {
