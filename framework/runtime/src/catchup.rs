@@ -218,24 +218,17 @@ mod tests {
         let message = crate::messages::loops_message(me, std::slice::from_ref(&closure), &[]);
         let is_loops =
             |replay: Vec<Message>| replay.iter().filter(|m| matches!(m, Message::Loops(_))).count();
-        let mut pair_only = CatchUp::default();
-        pair_only.record(me, std::slice::from_ref(&message), false);
-        assert_eq!(
+        // The loop messages replayed to the peer the loop joins and to a third robot.
+        let replayed = |loops_to_fleet| {
+            let mut catch_up = CatchUp::default();
+            catch_up.record(me, std::slice::from_ref(&message), loops_to_fleet);
             (
-                is_loops(pair_only.replay_for(peer)),
-                is_loops(pair_only.replay_for(third))
-            ),
-            (1, 0)
-        );
-        let mut fleet = CatchUp::default();
-        fleet.record(me, std::slice::from_ref(&message), true);
-        assert_eq!(
-            (
-                is_loops(fleet.replay_for(peer)),
-                is_loops(fleet.replay_for(third))
-            ),
-            (1, 1)
-        );
+                is_loops(catch_up.replay_for(peer)),
+                is_loops(catch_up.replay_for(third)),
+            )
+        };
+        assert_eq!(replayed(false), (1, 0));
+        assert_eq!(replayed(true), (1, 1));
     }
 
     #[test]

@@ -16,7 +16,7 @@ use skid_core::slots::{
 use skid_core::{KeyframeId, LoopId, PluginContext, PluginError, PluginResult, Pose, RobotId};
 
 use crate::chain::{Chains, Step};
-use crate::distributed::{Prior, Scope, active_loops, align_peers, build, write_back};
+use crate::distributed::{Prior, Scope, align_peers, build, write_back};
 use crate::error::PgoError;
 use crate::g2o_file::{Initialization, RobustMode};
 use crate::gnc::{GncSettings, gnc_tls, gnc_tls_warm, strict_threshold};
@@ -300,7 +300,10 @@ impl Backend for PgoBackend {
                 ..OptimizeReport::default()
             });
         }
-        let loops = active_loops(&self.loops);
+        // Every loop the graph holds. A distributed graph holds those with an end on its own robot, and,
+        // when the host shares the fleet's loops (`loops.fleet_loops`), loops between peers and a peer's
+        // own loops, which touch the peer keyframes they join and place a peer no own loop reaches.
+        let loops: Vec<&LoopClosure> = self.loops.values().collect();
         if scope == Scope::Full {
             // A centralised solve aligns every robot reachable from the first one.
             if let Some(first) = self.poses.keys().next() {

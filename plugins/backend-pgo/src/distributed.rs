@@ -49,14 +49,6 @@ pub struct Subgraph {
     pub factor_loops: Vec<Option<skid_core::LoopId>>,
 }
 
-/// The loops an optimisation uses: every loop the graph holds. A distributed graph holds the loops
-/// with an endpoint on its own robot, unless the host shares the fleet's loops with it
-/// (`loops.fleet_loops`): then loops between peers, and a peer's own loops, join the subgraph the same
-/// way, touching the peer keyframes they join, and place a peer that no own loop reaches.
-pub fn active_loops(loops: &BTreeMap<skid_core::LoopId, LoopClosure>) -> Vec<&LoopClosure> {
-    loops.values().collect()
-}
-
 /// Moves peers that active loops connect to an aligned robot into the aligned frame; returns the robots
 /// aligned now.
 pub fn align_peers(

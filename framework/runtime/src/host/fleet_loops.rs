@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 
 use skid_config::ResolvedConfig;
 use skid_core::slots::{LoopCandidate, LoopClosure, Verdict};
-use skid_core::{CloudView, Information, LoopId, Pose, RobotId, Slot};
+use skid_core::{CloudView, Information, LoopId, Pose, RobotId};
 
 use super::RobotHost;
 use super::announced::Pair;
@@ -238,14 +238,7 @@ impl RobotHost {
 
     fn add_fleet_loop(&mut self, config: &ResolvedConfig, closure: LoopClosure) -> Result<(), RuntimeError> {
         let pair = (closure.target, closure.source);
-        let added = self
-            .plugins
-            .backend
-            .as_mut()
-            .map(|backend| backend.add_loop(closure));
-        if let Some(Err(error)) = added {
-            return Err(self.plugin_error(config, Slot::Backend, error));
-        }
+        self.backend_add_loop(config, closure)?;
         self.fleet_loops.entered(pair);
         Ok(())
     }
@@ -300,20 +293,7 @@ impl RobotHost {
                 target_cloud: CloudView::default(),
                 source_cloud: CloudView::default(),
             };
-            let asked = self.ask_a_verifier(config, true, |verifier, graph| {
-                let started = std::time::Instant::now();
-                (verifier.submit(&submitted, graph), started.elapsed())
-            });
-            let verdict = match asked {
-                Some((verdict, took)) => {
-                    self.add_stage_ms("verifier", took.as_secs_f64() * 1e3);
-                    verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?
-                }
-                None => Verdict {
-                    accepted: vec![submitted.closure.id],
-                    ..Verdict::default()
-                },
-            };
+            let verdict = self.judge_by(config, true, submitted)?;
             self.apply_fleet_verdict(config, verdict)?;
         }
         self.place_fleet_loops(config)
@@ -321,13 +301,11 @@ impl RobotHost {
 
     /// Lets the fleet verifier re-judge the fleet's loops against the graph as it is now.
     pub(crate) fn reconsider_fleet_loops(&mut self, config: &ResolvedConfig) -> Result<(), RuntimeError> {
-        let Some(verdict) = self.ask_a_verifier(config, true, |verifier, graph| verifier.reconsider(graph))
-        else {
-            return Ok(());
-        };
-        let verdict = verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?;
-        self.apply_fleet_verdict(config, verdict)?;
-        self.place_fleet_loops(config)
+        if let Some(verdict) = self.reconsidered(config, true)? {
+            self.apply_fleet_verdict(config, verdict)?;
+            self.place_fleet_loops(config)?;
+        }
+        Ok(())
     }
 
     /// Applies the fleet verifier's verdict: accepted loops wait for placement, refused or withdrawn
@@ -342,22 +320,10 @@ impl RobotHost {
             .chain(verdict.rejected.into_iter().map(|(id, _)| id));
         for id in refused {
             if let Some(id) = self.fleet_loops.refused(id) {
-                self.remove_from_backend(config, id)?;
+                self.backend_remove_loop(config, id)?;
             }
         }
         Ok(())
-    }
-
-    fn remove_from_backend(&mut self, config: &ResolvedConfig, id: LoopId) -> Result<(), RuntimeError> {
-        let removed = self
-            .plugins
-            .backend
-            .as_mut()
-            .map(|backend| backend.remove_loop(id));
-        match removed {
-            Some(Err(error)) => Err(self.plugin_error(config, Slot::Backend, error)),
-            _ => Ok(()),
-        }
     }
 
     /// A fleet loop its finder retracted leaves the book and the back-end.
@@ -368,7 +334,7 @@ impl RobotHost {
         pair: Pair,
     ) -> Result<(), RuntimeError> {
         match self.fleet_loops.retract(from, pair) {
-            Some(id) => self.remove_from_backend(config, id),
+            Some(id) => self.backend_remove_loop(config, id),
             None => Ok(()),
         }
     }

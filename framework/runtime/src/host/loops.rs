@@ -5,7 +5,7 @@
 use nalgebra::{UnitQuaternion, Vector3};
 use skid_config::ResolvedConfig;
 use skid_core::slots::{CoarseAlignment, LoopCandidate, LoopClosure, Verdict, Verifier};
-use skid_core::{KeyframeId, PluginError, Pose, Slot};
+use skid_core::{KeyframeId, LoopId, PluginError, Pose, Slot};
 
 use super::RobotHost;
 use super::announced::Audience;
@@ -120,7 +120,17 @@ impl RobotHost {
         config: &ResolvedConfig,
         submitted: LoopCandidate<'_>,
     ) -> Result<Verdict, RuntimeError> {
-        let asked = self.ask_verifier(config, |verifier, graph| {
+        self.judge_by(config, false, submitted)
+    }
+
+    /// [`Self::judge`] by the verifier of the fleet's loops when `fleet` (`loops.fleet_loops`).
+    pub(crate) fn judge_by(
+        &mut self,
+        config: &ResolvedConfig,
+        fleet: bool,
+        submitted: LoopCandidate<'_>,
+    ) -> Result<Verdict, RuntimeError> {
+        let asked = self.ask_verifier(config, fleet, |verifier, graph| {
             let started = std::time::Instant::now();
             (verifier.submit(&submitted, graph), started.elapsed())
         });
@@ -134,18 +144,59 @@ impl RobotHost {
         verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))
     }
 
-    /// Runs `ask` on the verifier with the graph as this robot sees it now (its frames through third
-    /// robots refreshed first); `None` without a verifier.
-    pub(crate) fn ask_verifier<R>(
+    /// The verifier's (the fleet's verifier's when `fleet`) re-judgement of the loops submitted so far
+    /// against the graph as it is now; `None` without that verifier.
+    pub(crate) fn reconsidered(
         &mut self,
         config: &ResolvedConfig,
-        ask: impl FnOnce(&mut dyn Verifier, &HostGraph<'_>) -> R,
-    ) -> Option<R> {
-        self.ask_a_verifier(config, false, ask)
+        fleet: bool,
+    ) -> Result<Option<Verdict>, RuntimeError> {
+        match self.ask_verifier(config, fleet, |verifier, graph| verifier.reconsider(graph)) {
+            Some(verdict) => verdict
+                .map(Some)
+                .map_err(|error| self.plugin_error(config, Slot::Verifier, error)),
+            None => Ok(None),
+        }
     }
 
-    /// [`Self::ask_verifier`] for the verifier of the fleet's loops (`loops.fleet_loops`) when `fleet`.
-    pub(crate) fn ask_a_verifier<R>(
+    /// Adds a loop whose keyframes are both in the graph to the back-end.
+    pub(crate) fn backend_add_loop(
+        &mut self,
+        config: &ResolvedConfig,
+        closure: LoopClosure,
+    ) -> Result<(), RuntimeError> {
+        let added = self
+            .plugins
+            .backend
+            .as_mut()
+            .map(|backend| backend.add_loop(closure));
+        match added {
+            Some(Err(error)) => Err(self.plugin_error(config, Slot::Backend, error)),
+            _ => Ok(()),
+        }
+    }
+
+    /// Removes a loop from the back-end.
+    pub(crate) fn backend_remove_loop(
+        &mut self,
+        config: &ResolvedConfig,
+        id: LoopId,
+    ) -> Result<(), RuntimeError> {
+        let removed = self
+            .plugins
+            .backend
+            .as_mut()
+            .map(|backend| backend.remove_loop(id));
+        match removed {
+            Some(Err(error)) => Err(self.plugin_error(config, Slot::Backend, error)),
+            _ => Ok(()),
+        }
+    }
+
+    /// Runs `ask` on the verifier (the fleet's verifier when `fleet`, `loops.fleet_loops`) with the graph
+    /// as this robot sees it now (its frames through third robots refreshed first); `None` without that
+    /// verifier.
+    pub(crate) fn ask_verifier<R>(
         &mut self,
         config: &ResolvedConfig,
         fleet: bool,
@@ -201,14 +252,7 @@ impl RobotHost {
             |closure: &LoopClosure, from_peer: bool| (fleet || closure.is_inter_robot()) && !from_peer;
         for id in verdict.retracted {
             if let Some(closure) = self.loops.retract(id) {
-                if let Some(backend) = self.plugins.backend.as_mut() {
-                    backend.remove_loop(id).map_err(|e| RuntimeError::Plugin {
-                        robot: self.robot,
-                        slot: Slot::Backend,
-                        plugin: config.slot(Slot::Backend).plugin.clone(),
-                        source: e,
-                    })?;
-                }
+                self.backend_remove_loop(config, id)?;
                 if announced(&closure, self.loops.is_from_peer(id)) {
                     retracted_messages.push(closure);
                 }
@@ -289,19 +333,7 @@ impl RobotHost {
             self.graph.defer(closure.clone());
             return Ok(());
         }
-        let robot = self.robot;
-        let plugin = config.slot(Slot::Backend).plugin.clone();
-        if let Some(backend) = self.plugins.backend.as_mut() {
-            backend
-                .add_loop(closure.clone())
-                .map_err(|source| RuntimeError::Plugin {
-                    robot,
-                    slot: Slot::Backend,
-                    plugin,
-                    source,
-                })?;
-        }
-        Ok(())
+        self.backend_add_loop(config, closure.clone())
     }
 
     /// Adds every known keyframe of `peer`'s robot to the back-end, placed through the first loop.

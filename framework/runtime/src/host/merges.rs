@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 
 use skid_config::ResolvedConfig;
-use skid_core::{KeyframeId, Pose, RobotId, Slot};
+use skid_core::{KeyframeId, Pose, RobotId};
 use skid_protocol::{FrameMsg, Frames, Message, PoseMsg};
 
 use super::RobotHost;
@@ -103,10 +103,9 @@ impl RobotHost {
         if config.loops.fleet_loops {
             self.reconsider_fleet_loops(config)?;
         }
-        let Some(verdict) = self.ask_verifier(config, |verifier, graph| verifier.reconsider(graph)) else {
-            return Ok(());
-        };
-        let verdict = verdict.map_err(|error| self.plugin_error(config, Slot::Verifier, error))?;
-        self.apply_verdict(config, verdict, outbox)
+        match self.reconsidered(config, false)? {
+            Some(verdict) => self.apply_verdict(config, verdict, outbox),
+            None => Ok(()),
+        }
     }
 }
