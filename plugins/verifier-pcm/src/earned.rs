@@ -32,7 +32,7 @@ use std::collections::BTreeSet;
 use crate::clique::{Graph, induced};
 use crate::consistency::PcmLoop;
 use crate::dense::consistent_core;
-use crate::predicted::{OverlapRule, placements, predicted_overlaps};
+use crate::predicted::{Along, OverlapRule, placements, predicted_overlaps};
 
 /// What decides a grant.
 #[derive(Clone, Copy, Debug)]
@@ -137,8 +137,10 @@ fn offsets_through_others(
     if through.is_empty() {
         return Vec::new();
     }
-    // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b.
-    let placed = placements(loops, members, graph);
+    // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b,
+    // each robot's keyframes placed along the graph's estimate, as the frames through others were: the
+    // odometry alone drifts from it by as much as the robots travelled without a loop.
+    let placed = placements(loops, members, graph, Along::Estimate);
     if placed.is_empty() {
         return Vec::new();
     }

@@ -225,6 +225,17 @@ impl Group {
         (local.into_iter().map(|i| kept[i]).collect(), exact)
     }
 
+    /// Whether a group that holds fewer loops than `min_loops_before_decision` decides now: an
+    /// inter-robot group with at least `min_loops_with_cycle` loops, every one of which agrees with the
+    /// frame known through a third robot.
+    fn decides_early(&self, params: &PcmParams, intra: bool, graph: &dyn GraphView) -> bool {
+        let members: Vec<usize> = (0..self.loops.len()).collect();
+        !intra
+            && params.min_loops_with_cycle > 0
+            && self.loops.len() >= params.min_loops_with_cycle
+            && agrees_with_cycle(&params.grant_rule(), &self.loops, &members, graph)
+    }
+
     /// Judges an inter-robot group's leading set; a set whose predictions fail is refuted for good and
     /// the leading set of the loops left is judged in its place, so a wrong frame that outnumbers the
     /// right one does not hold it back.
@@ -303,14 +314,23 @@ impl Pcm {
     }
 
     /// Re-judges every decided inter-robot group's leading set against the graph as it is now (new
-    /// frames through third robots, say): returns the loops granted and withdrawn.
+    /// frames through third robots, say), and decides a waiting group whose loops all agree with a frame
+    /// through a third robot that became known since its last loop (`min_loops_with_cycle`): returns
+    /// the loops granted and withdrawn.
     pub fn reconsider(&mut self, graph: &dyn GraphView) -> (Vec<LoopId>, Vec<LoopId>) {
         let (mut accepted, mut retracted) = (Vec::new(), Vec::new());
         for (&(a, b), group) in &mut self.groups {
-            if a == b || !group.decided {
+            if a == b {
                 continue;
             }
             let before: BTreeSet<usize> = group.granted().iter().copied().collect();
+            if !group.decided {
+                if !group.decides_early(&self.params, false, graph) {
+                    continue;
+                }
+                (group.clique, group.exact) = group.leading_without_refuted(&self.params);
+                group.decided = true;
+            }
             group.settle(&self.params, graph);
             let after: BTreeSet<usize> = group.granted().iter().copied().collect();
             accepted.extend(after.difference(&before).map(|&k| group.loops[k].id));
@@ -351,14 +371,7 @@ impl Pcm {
         let before: BTreeSet<usize> = group.granted().iter().copied().collect();
         // The cycle is only asked about while the group would otherwise still wait.
         let waits = group.loops.len() < self.params.min_loops_before_decision.max(1);
-        let early = || {
-            let members: Vec<usize> = (0..group.loops.len()).collect();
-            !intra
-                && self.params.min_loops_with_cycle > 0
-                && group.loops.len() >= self.params.min_loops_with_cycle
-                && agrees_with_cycle(&self.params.grant_rule(), &group.loops, &members, graph)
-        };
-        if waits && !early() {
+        if waits && !group.decides_early(&self.params, intra, graph) {
             return Ok(PcmUpdate {
                 pending: true,
                 group_size: group.loops.len(),

@@ -45,23 +45,42 @@ impl OverlapRule {
     }
 }
 
+/// How a robot's keyframes are placed against its first one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Along {
+    /// By the odometry chains alone.
+    Odometry,
+    /// By the graph's poses (the back-end's optimised estimate, loops included) where it holds both
+    /// keyframes, else by the odometry.
+    Estimate,
+}
+
 /// Where each member puts robot `b`: `(a_first_from_b_first, b_first_from_source)` per member whose
-/// keyframes the odometry chains reach.
-pub(crate) fn placements(loops: &[PcmLoop], members: &[usize], graph: &dyn GraphView) -> Vec<(Pose, Pose)> {
-    let Some(first) = members.first().and_then(|&k| loops.get(k)) else {
-        return Vec::new();
+/// keyframes the graph reaches, each robot's keyframes placed against its first one `along` the
+/// odometry or the estimate.
+pub(crate) fn placements(
+    loops: &[PcmLoop],
+    members: &[usize],
+    graph: &dyn GraphView,
+    along: Along,
+) -> Vec<(Pose, Pose)> {
+    let first_from = |id: KeyframeId| -> Option<Pose> {
+        let first = start(id.robot);
+        let estimated = match along {
+            Along::Estimate => graph
+                .pose(first)
+                .zip(graph.pose(id))
+                .map(|(f, p)| f.inverse() * p),
+            Along::Odometry => None,
+        };
+        estimated.or_else(|| Some(graph.odometry_between(first, id)?.target_from_source))
     };
-    let (a, b) = (first.target.robot, first.source.robot);
     members
         .iter()
         .filter_map(|&k| {
             let member = &loops[k];
-            let a_first_from_target = graph
-                .odometry_between(start(a), member.target)?
-                .target_from_source;
-            let b_first_from_source = graph
-                .odometry_between(start(b), member.source)?
-                .target_from_source;
+            let a_first_from_target = first_from(member.target)?;
+            let b_first_from_source = first_from(member.source)?;
             let frame = a_first_from_target * member.target_from_source * b_first_from_source.inverse();
             Some((frame, b_first_from_source))
         })
@@ -126,7 +145,7 @@ pub(crate) fn predicted_overlaps(
         return predicted;
     }
     let (a, b) = (first.target.robot, first.source.robot);
-    let frames: Vec<Pose> = placements(loops, members, graph)
+    let frames: Vec<Pose> = placements(loops, members, graph, Along::Odometry)
         .into_iter()
         .map(|(frame, _)| frame)
         .collect();

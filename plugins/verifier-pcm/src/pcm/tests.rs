@@ -304,6 +304,28 @@ fn a_pair_whose_frame_a_third_robot_confirms_is_decided_with_fewer_loops() {
     assert!(pcm.accepted().is_empty());
 }
 
+#[test]
+fn a_waiting_pair_is_decided_when_a_third_robot_confirms_its_frame_later() {
+    let k = KeyframeId::new;
+    let mut pcm = Pcm::new(PcmParams::default()).unwrap();
+    for (id, index) in [(1, 2), (2, 10), (3, 16)] {
+        let update = pcm
+            .add(pcm_loop(id, k(0, index), k(1, index), Pose::identity()), &Curves)
+            .unwrap();
+        assert!(update.pending, "no third robot yet: {update:?}");
+    }
+    // A third robot that places robot 1 elsewhere leaves the pair waiting.
+    let elsewhere = Pose::new(Vector3::new(30.0, 0.0, 0.0), Vector3::zeros());
+    let (accepted, retracted) = pcm.reconsider(&CurvesWith::third_robot(elsewhere));
+    assert!(accepted.is_empty() && retracted.is_empty());
+    assert!(pcm.accepted().is_empty());
+    // One that places it where the loops do decides the pair without a fourth loop.
+    let (accepted, retracted) = pcm.reconsider(&CurvesWith::third_robot(Pose::identity()));
+    assert_eq!(accepted, vec![LoopId(1), LoopId(2), LoopId(3)]);
+    assert!(retracted.is_empty());
+    assert_eq!(pcm.accepted(), vec![LoopId(1), LoopId(2), LoopId(3)]);
+}
+
 /// Feeds five consistent loops that put robot 1 on robot 0's keyframes of the same index (robot 1's
 /// world moved 5 m onto robot 0's route) and returns the last update.
 fn robots_on_each_other(pcm: &mut Pcm, graph: &dyn GraphView) -> PcmUpdate {
