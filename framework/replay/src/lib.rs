@@ -9,9 +9,11 @@
 //! | [`problem`] | the dataset as events of keyframes, odometry, priors and labelled loops |
 //! | [`run`] | the two modes, driving plugin instances from a [`PluginFactory`] |
 //! | [`report`] | ATE (unaligned and jointly aligned), loops kept and dropped by label, time per update |
+//! | `frames` | what a replayed verifier sees: chains, back-end poses, frames through third robots |
 //! | [`configured`] | the plugins and budget of a resolved configuration, as `skid run` builds them |
 
 pub mod configured;
+mod frames;
 pub mod problem;
 pub mod report;
 pub mod run;

@@ -1,34 +1,39 @@
 //! Replaying a problem through a verifier and a back-end, the plugins `skid run` uses, in one of two
 //! modes:
 //!
-//! - **batch**: one verifier and one back-end hold the whole problem (every robot's keyframes, odometry
-//!   and priors); the loops are submitted in stamp order, and the back-end optimises once at the end.
-//! - **incremental** (distributed): each robot has its own verifier and back-end and learns its own
-//!   measurements in stamp order. A loop goes through the verifier of the robot whose list holds it (the
-//!   one that found it); an accepted inter-robot loop reaches the other robot's back-end at once, with
-//!   the finder's odometry chain when it is the first loop between them, and a retracted one leaves both,
-//!   as `skid run` shares them. With `fleet_loops`, as `skid run` under `loops.fleet_loops`, every
-//!   accepted loop (intra-robot ones too) also reaches every other robot, whose second verifier (the
-//!   fleet's loops, pooled by robot pair) judges it on its pose before it enters that robot's back-end;
-//!   a loop its finder retracts leaves every graph. Every robot's odometry is known to every verifier
-//!   as it arrives (robots
-//!   broadcast their chains). After each event the back-ends it changed optimise; the time of the event,
-//!   verifier and back-ends together, is one update.
+//! - **batch** ([`batch`]): one verifier and one back-end hold the whole problem (every robot's
+//!   keyframes, odometry and priors); the loops are submitted in stamp order, the back-end optimises
+//!   once at the end, and the verifier then re-judges its loops against the frames the solved graph
+//!   holds through third robots.
+//! - **incremental** (distributed, [`incremental`]): each robot has its own verifier and back-end and
+//!   learns its own measurements in stamp order. A loop goes through the verifier of the robot whose
+//!   list holds it (the one that found it); an accepted inter-robot loop reaches the other robot's
+//!   back-end at once, with the finder's odometry chain when it is the first loop between them, and a
+//!   retracted one leaves both, as `skid run` shares them. With `fleet_loops`, as `skid run` under
+//!   `loops.fleet_loops`, every accepted loop (intra-robot ones too) also reaches every other robot,
+//!   whose second verifier (the fleet's loops, pooled by robot pair) judges it on its pose before it
+//!   enters that robot's back-end; a loop its finder retracts leaves every graph. Every robot's odometry
+//!   is known to every verifier as it arrives (robots broadcast their chains), and each robot's frames
+//!   of the robots it merged with reach the others once they move ([`crate::frames`]). After each event
+//!   the back-ends it changed optimise; the time of the event, verifiers and back-ends together, is one
+//!   update.
 //!
 //! The verifier judges a loop on its pose alone: a recorded problem has no clouds, so the candidates
 //! carry none and cloud checks (PCM's truncated MSE) are skipped.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::time::Instant;
 
 use skid_core::slots::{
-    Backend, LoopCandidate, LoopClosure, OdometryMeasurement, OptimizeBudget, Verdict, Verifier,
+    Backend, GraphView, LoopCandidate, LoopClosure, OdometryMeasurement, OptimizeBudget, Verdict, Verifier,
 };
 use skid_core::{CloudView, Information, KeyframeId, LoopId, PluginError, PluginResult, Pose, RobotId};
 use skid_geometry::OdometryChains;
 
 use crate::ReplayError;
 use crate::problem::{Item, ReplayProblem};
+
+mod batch;
+mod incremental;
 
 /// How the problem is replayed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,8 +107,8 @@ pub fn replay(
     budget: OptimizeBudget,
 ) -> Result<ReplayOutcome, ReplayError> {
     match mode {
-        ReplayMode::Batch => batch(problem, factory, budget),
-        ReplayMode::Incremental => incremental(problem, factory, budget),
+        ReplayMode::Batch => batch::batch(problem, factory, budget),
+        ReplayMode::Incremental => incremental::incremental(problem, factory, budget),
     }
 }
 
@@ -147,14 +152,18 @@ impl Known {
     }
 }
 
-fn submit(verifier: &mut dyn Verifier, closure: &LoopClosure, known: &Known) -> PluginResult<Verdict> {
+fn submit(
+    verifier: &mut dyn Verifier,
+    closure: &LoopClosure,
+    graph: &dyn GraphView,
+) -> PluginResult<Verdict> {
     let candidate = LoopCandidate {
         closure: closure.clone(),
         target_cloud: CloudView::default(),
         source_cloud: CloudView::default(),
     };
     // The verifiers see the odometry chains known so far.
-    verifier.submit(&candidate, &known.chains)
+    verifier.submit(&candidate, graph)
 }
 
 /// One back-end and what it holds.
@@ -272,6 +281,20 @@ impl Graph {
         Ok(())
     }
 
+    /// This graph's frames of the robots `me` holds accepted loops with ([`crate::frames`]).
+    fn merged_frames(&self, me: RobotId) -> BTreeMap<RobotId, Pose> {
+        let view = self.backend.graph();
+        let first_pose = |robot: RobotId| {
+            let from = KeyframeId { robot, index: 0 };
+            let to = KeyframeId {
+                robot,
+                index: u32::MAX,
+            };
+            view.pose(*self.in_backend.range(from..=to).next()?)
+        };
+        crate::frames::merged_frames(me, first_pose, self.loops.values())
+    }
+
     /// Optimises when the graph changed since the last time; returns whether it did.
     fn optimize_if_changed(&mut self, budget: OptimizeBudget) -> PluginResult<bool> {
         let changed = std::mem::take(&mut self.changed);
@@ -303,258 +326,6 @@ impl Graph {
 
 fn plugin_error(robot: RobotId, error: PluginError) -> ReplayError {
     ReplayError::Plugin { robot, source: error }
-}
-
-fn batch(
-    problem: &ReplayProblem,
-    factory: &dyn PluginFactory,
-    budget: OptimizeBudget,
-) -> Result<ReplayOutcome, ReplayError> {
-    let first = RobotId(0);
-    let fail = |error| plugin_error(first, error);
-    let robots = (0..problem.robots.len() as u32).map(RobotId);
-    let mut graph = Graph::new(factory.backend(first).map_err(fail)?, robots);
-    let mut verifier = factory.verifier(first).map_err(fail)?;
-    let mut known = Known::default();
-    let mut fates: BTreeMap<LoopId, LoopFate> = BTreeMap::new();
-    let mut closures: BTreeMap<LoopId, LoopClosure> = BTreeMap::new();
-    let started = Instant::now();
-    for event in &problem.events {
-        for item in &event.items {
-            known.learn(item);
-            match item {
-                Item::Keyframe { .. } => {}
-                Item::Odometry { measurement, .. } => {
-                    graph.add_keyframe(measurement.source, &known).map_err(fail)?;
-                }
-                Item::Prior { id, .. } => graph.add_keyframe(*id, &known).map_err(fail)?,
-                Item::Loop { closure, label } => {
-                    closures.insert(closure.id, closure.clone());
-                    let fate = fates.entry(closure.id).or_default();
-                    if !label.potential_outlier {
-                        fate.accepted = true;
-                        continue;
-                    }
-                    fate.undecided = true;
-                    let verdict = submit(verifier.as_mut(), closure, &known).map_err(fail)?;
-                    apply_to_fates(&mut fates, &verdict);
-                }
-            }
-        }
-    }
-    for (id, fate) in &fates {
-        if fate.accepted
-            && let Some(closure) = closures.get(id)
-        {
-            graph.add_loop(closure, &known).map_err(fail)?;
-        }
-    }
-    graph.changed = true;
-    graph.optimize_if_changed(budget).map_err(fail)?;
-    let total_s = started.elapsed().as_secs_f64();
-    weigh(&mut fates, std::slice::from_ref(&graph));
-    let snapshot = graph.snapshot(&known);
-    let estimates = (0..problem.robots.len())
-        .map(|robot| own_estimate(&snapshot, RobotId(robot as u32)))
-        .collect();
-    Ok(ReplayOutcome {
-        mode: ReplayMode::Batch,
-        estimates,
-        graphs: vec![snapshot],
-        loops: fates,
-        update_ms: vec![total_s * 1e3],
-        robot_update_ms: vec![total_s * 1e3],
-        total_s,
-    })
-}
-
-fn incremental(
-    problem: &ReplayProblem,
-    factory: &dyn PluginFactory,
-    budget: OptimizeBudget,
-) -> Result<ReplayOutcome, ReplayError> {
-    let mut graphs = Vec::new();
-    let mut verifiers = Vec::new();
-    let mut fleet_verifiers = Vec::new();
-    let fleet = factory.fleet_loops();
-    for robot in (0..problem.robots.len() as u32).map(RobotId) {
-        let fail = |error| plugin_error(robot, error);
-        graphs.push(Graph::new(factory.backend(robot).map_err(fail)?, [robot]));
-        verifiers.push(factory.verifier(robot).map_err(fail)?);
-        if fleet {
-            fleet_verifiers.push(FleetVerifier {
-                verifier: factory.verifier(robot).map_err(fail)?,
-                submitted: BTreeSet::new(),
-                accepted: BTreeSet::new(),
-            });
-        }
-    }
-    let mut known = Known::default();
-    let mut fates: BTreeMap<LoopId, LoopFate> = BTreeMap::new();
-    let mut closures: BTreeMap<LoopId, LoopClosure> = BTreeMap::new();
-    let mut update_ms = Vec::with_capacity(problem.events.len());
-    let mut robot_update_ms = Vec::with_capacity(problem.events.len());
-    for event in &problem.events {
-        let robot = event.robot;
-        let fail = |error| plugin_error(robot, error);
-        let started = Instant::now();
-        // Each robot's own work in this event, in milliseconds (`None`: it did nothing).
-        let mut robot_ms: Vec<Option<f64>> = vec![None; graphs.len()];
-        for item in &event.items {
-            known.learn(item);
-            match item {
-                Item::Keyframe { .. } => {}
-                Item::Odometry { measurement, .. } => {
-                    for graph in &mut graphs {
-                        graph.add_keyframe(measurement.source, &known).map_err(fail)?;
-                    }
-                }
-                Item::Prior { id, .. } => {
-                    for graph in &mut graphs {
-                        graph.add_keyframe(*id, &known).map_err(fail)?;
-                    }
-                }
-                Item::Loop { closure, label } => {
-                    closures.insert(closure.id, closure.clone());
-                    let fate = fates.entry(closure.id).or_default();
-                    let entering = if label.potential_outlier {
-                        fate.undecided = true;
-                        let verifier = &mut verifiers[robot.0 as usize];
-                        let judged = Instant::now();
-                        let verdict = submit(verifier.as_mut(), closure, &known).map_err(fail)?;
-                        add_ms(&mut robot_ms, robot, judged);
-                        apply_to_fates(&mut fates, &verdict);
-                        for id in &verdict.retracted {
-                            for graph in graphs.iter_mut() {
-                                graph.remove_loop(*id).map_err(fail)?;
-                            }
-                        }
-                        verdict.accepted
-                    } else {
-                        // A known inlier is not submitted.
-                        fate.accepted = true;
-                        vec![closure.id]
-                    };
-                    for id in &entering {
-                        if let Some(closure) = closures.get(id) {
-                            share_accepted(
-                                &mut graphs,
-                                &mut fleet_verifiers,
-                                closure,
-                                &closures,
-                                &known,
-                                &mut robot_ms,
-                            )
-                            .map_err(fail)?;
-                        }
-                    }
-                }
-            }
-        }
-        for (index, graph) in graphs.iter_mut().enumerate() {
-            let optimised = Instant::now();
-            graph.retry_deferred(&known).map_err(fail)?;
-            if graph.optimize_if_changed(budget).map_err(fail)? {
-                add_ms(&mut robot_ms, RobotId(index as u32), optimised);
-            }
-        }
-        update_ms.push(started.elapsed().as_secs_f64() * 1e3);
-        robot_update_ms.extend(robot_ms.into_iter().flatten());
-    }
-    weigh(&mut fates, &graphs);
-    let snapshots: Vec<RobotGraph> = graphs.iter().map(|graph| graph.snapshot(&known)).collect();
-    let estimates = snapshots
-        .iter()
-        .enumerate()
-        .map(|(robot, snapshot)| own_estimate(snapshot, RobotId(robot as u32)))
-        .collect();
-    Ok(ReplayOutcome {
-        mode: ReplayMode::Incremental,
-        estimates,
-        graphs: snapshots,
-        loops: fates,
-        total_s: update_ms.iter().sum::<f64>() * 1e-3,
-        update_ms,
-        robot_update_ms,
-    })
-}
-
-/// An accepted loop enters the graphs of the robots it joins (one for an intra-robot loop).
-fn share(graphs: &mut [Graph], closure: &LoopClosure, known: &Known) -> PluginResult<()> {
-    let ends: BTreeSet<RobotId> = [closure.target.robot, closure.source.robot].into();
-    for end in ends {
-        if let Some(graph) = graphs.get_mut(end.0 as usize)
-            && !graph.loops.contains_key(&closure.id)
-            && !graph.deferred.contains_key(&closure.id)
-        {
-            graph.add_loop(closure, known)?;
-        }
-    }
-    Ok(())
-}
-
-/// An accepted loop enters the graphs of the robots it joins ([`share`]) and goes to every other robot
-/// (`fleet_loops`; none when `fleet_verifiers` is empty): each judges it with its fleet verifier, and
-/// the loops that verifier accepts (this one, or earlier ones it now decides) enter its graph, those it
-/// refuses or withdraws leave it.
-fn share_accepted(
-    graphs: &mut [Graph],
-    fleet_verifiers: &mut [FleetVerifier],
-    closure: &LoopClosure,
-    closures: &BTreeMap<LoopId, LoopClosure>,
-    known: &Known,
-    robot_ms: &mut [Option<f64>],
-) -> PluginResult<()> {
-    share(graphs, closure, known)?;
-    for (robot, (graph, fleet)) in graphs.iter_mut().zip(fleet_verifiers.iter_mut()).enumerate() {
-        let robot = RobotId(robot as u32);
-        if closure.target.robot == robot || closure.source.robot == robot {
-            continue;
-        }
-        let mut entering = Vec::new();
-        if fleet.submitted.insert(closure.id) {
-            let judged = Instant::now();
-            let verdict = submit(fleet.verifier.as_mut(), closure, known)?;
-            add_ms(robot_ms, robot, judged);
-            let refused = verdict
-                .retracted
-                .iter()
-                .chain(verdict.rejected.iter().map(|(id, _)| id));
-            for id in refused {
-                fleet.accepted.remove(id);
-                graph.remove_loop(*id)?;
-            }
-            fleet.accepted.extend(verdict.accepted.iter().copied());
-            entering = verdict.accepted;
-        } else if fleet.accepted.contains(&closure.id) {
-            // Accepted again by its finder after a retraction: this robot's verdict on it stands.
-            entering.push(closure.id);
-        }
-        for id in &entering {
-            if let Some(accepted) = closures.get(id)
-                && !graph.loops.contains_key(id)
-                && !graph.deferred.contains_key(id)
-            {
-                graph.add_loop(accepted, known)?;
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Adds the time since `since` to `robot`'s work in this event.
-fn add_ms(robot_ms: &mut [Option<f64>], robot: RobotId, since: Instant) {
-    if let Some(ms) = robot_ms.get_mut(robot.0 as usize) {
-        *ms = Some(ms.unwrap_or(0.0) + since.elapsed().as_secs_f64() * 1e3);
-    }
-}
-
-/// A robot's verifier of the loops other robots found (`fleet_loops`), and what it was given and
-/// accepted.
-struct FleetVerifier {
-    verifier: Box<dyn Verifier>,
-    submitted: BTreeSet<LoopId>,
-    accepted: BTreeSet<LoopId>,
 }
 
 fn apply_to_fates(fates: &mut BTreeMap<LoopId, LoopFate>, verdict: &Verdict) {
