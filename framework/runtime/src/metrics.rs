@@ -14,6 +14,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::Vector3;
 use serde::Serialize;
+use skid_core::slots::LoopClosure;
 use skid_core::{KeyframeId, Pose};
 use skid_eval::{
     AlignmentConditioning, AlignmentKind, AlphaBetaInput, ErrorStats, MEETING_RADIUS_M, MeetingError,
@@ -146,11 +147,12 @@ pub fn alpha_from_beta(alpha: &RobotHost, beta: &RobotHost) -> Result<(Pose, usi
         .backend_graph()
         .ok_or("robot α has no back-end, so it holds no estimate of β's frame")?;
     // β's keyframes stay in α's back-end after every loop between them was retracted (a merge
-    // withdrawn); they place β nowhere then.
-    let merged = alpha
-        .accepted_loops()
-        .values()
-        .any(|closure| closure.target.robot == beta.robot() || closure.source.robot == beta.robot());
+    // withdrawn); they place β nowhere then. The fleet's loops in α's graph that touch β place it too
+    // (`loops.fleet_loops`: a loop between β and a robot α placed).
+    let touches_beta =
+        |closure: &LoopClosure| closure.target.robot == beta.robot() || closure.source.robot == beta.robot();
+    let merged = alpha.accepted_loops().values().any(touches_beta)
+        || alpha.fleet_loops_in_graph().iter().any(touches_beta);
     if !merged {
         return Err(format!(
             "{} accepted no loop with {} (or withdrew every one)",

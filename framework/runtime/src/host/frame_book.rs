@@ -45,6 +45,11 @@ pub(crate) struct FrameBook {
     sent: BTreeMap<RobotId, Pose>,
     /// Each peer's last report: peer → (robot → peer_first_from_robot_first).
     reported: BTreeMap<RobotId, BTreeMap<RobotId, Pose>>,
+    /// Robots this robot's back-end places through the fleet's loops alone (it holds no loop with them,
+    /// `loops.fleet_loops`): robot → (own_first_from_robot_first, the robot at the other end of most of
+    /// those loops). They are never reported to peers: such a frame rests on loops between other robots,
+    /// and a verifier that checked those robots' merge against it would confirm the merge by itself.
+    through_fleet: BTreeMap<RobotId, (Pose, RobotId)>,
     /// When each robot was first placed in this robot's frame (directly or through others), by the
     /// host's clock; a robot that left and joined again keeps its first time.
     first_joined_nanos: BTreeMap<RobotId, u64>,
@@ -54,6 +59,11 @@ impl FrameBook {
     /// Replaces this robot's frames (peer → own_first_from_peer_first and the loops behind it).
     pub(crate) fn set_own(&mut self, own: BTreeMap<RobotId, (Pose, u32)>) {
         self.own = own;
+    }
+
+    /// Replaces the frames of the robots the back-end places through the fleet's loops alone.
+    pub(crate) fn set_through_fleet(&mut self, through_fleet: BTreeMap<RobotId, (Pose, RobotId)>) {
+        self.through_fleet = through_fleet;
     }
 
     /// This robot's current frames.
@@ -108,9 +118,10 @@ impl FrameBook {
         &self.first_joined_nanos
     }
 
-    /// Every robot this robot (`me`) can place: those it merged with directly, then, round by round, the
-    /// robots that the robots already placed report, composed along the chain. A robot that two chains
-    /// of one round place apart by more than the disagreement bound is left out.
+    /// Every robot this robot (`me`) can place: those it merged with directly, those its back-end
+    /// places through the fleet's loops, then, round by round, the robots that the robots already placed
+    /// report, composed along the chain. A robot that two chains of one round place apart by more than
+    /// the disagreement bound is left out.
     pub(crate) fn joined(&self, me: RobotId) -> BTreeMap<RobotId, JoinedFrame> {
         let mut joined: BTreeMap<RobotId, JoinedFrame> = self
             .own
@@ -124,6 +135,13 @@ impl FrameBook {
                 (*robot, frame)
             })
             .collect();
+        for (robot, (pose, via)) in &self.through_fleet {
+            joined.entry(*robot).or_insert(JoinedFrame {
+                own_first_from_robot_first: *pose,
+                loops: 0,
+                via: Some(*via),
+            });
+        }
         let mut disputed: BTreeSet<RobotId> = BTreeSet::new();
         loop {
             let mut chains: BTreeMap<RobotId, Vec<(RobotId, Pose)>> = BTreeMap::new();
@@ -277,5 +295,27 @@ mod tests {
             !book.joined(r0).contains_key(&r3),
             "robot 3 was only reached through robot 2"
         );
+    }
+
+    #[test]
+    fn robots_the_fleets_loops_place_are_joined_but_never_reported() {
+        let (r0, r1, r2) = (RobotId(0), RobotId(1), RobotId(2));
+        let mut book = FrameBook::default();
+        // Robot 0 merged with robot 2; its back-end places robot 1 through loops between 1 and 2.
+        book.set_own(BTreeMap::from([(r2, (pose(10.0, 90.0), 6))]));
+        book.set_through_fleet(BTreeMap::from([(r1, (pose(3.0, 0.0), r2))]));
+        let joined = book.joined(r0);
+        assert_eq!(joined[&r1].via, Some(r2));
+        assert_eq!(joined[&r1].loops, 0);
+        assert_eq!(joined[&r1].own_first_from_robot_first, pose(3.0, 0.0));
+        assert_eq!(
+            book.take_due(),
+            Some(vec![(r2, pose(10.0, 90.0), 6)]),
+            "only frames of the robot's own loops are sent"
+        );
+        // A frame the robot holds loops with itself stands before one the fleet's loops give.
+        book.set_through_fleet(BTreeMap::from([(r2, (pose(50.0, 0.0), r1))]));
+        assert_eq!(book.joined(r0)[&r2].own_first_from_robot_first, pose(10.0, 90.0));
+        assert!(book.through_others(r0, r0, r1).is_empty(), "no cycle rests on it");
     }
 }

@@ -12,18 +12,34 @@ use skid_protocol::{FrameMsg, Frames, Message, PoseMsg};
 use super::RobotHost;
 use crate::error::RuntimeError;
 
+/// A robot's first keyframe.
+fn first_keyframe(robot: RobotId) -> KeyframeId {
+    KeyframeId { robot, index: 0 }
+}
+
 impl RobotHost {
     /// Recomputes this robot's frames of its merged peers from the back-end: the pose of each peer's
     /// first keyframe in the frame of this robot's first keyframe, for every peer it holds accepted
     /// loops with (carried from the peer's earliest keyframe in the graph by the peer's odometry when
-    /// the first one is not in the graph).
+    /// the first one is not in the graph); and the frames of the robots its back-end places through the
+    /// fleet's loops alone, kept apart
+    /// ([`super::frame_book::FrameBook::set_through_fleet`]).
     pub(crate) fn refresh_frames(&mut self) {
         let Some(graph) = self.plugins.backend.as_ref().map(|backend| backend.graph()) else {
             return;
         };
-        let first = |robot| KeyframeId { robot, index: 0 };
-        let Some(own_first) = graph.pose(first(self.robot)) else {
+        let Some(own_first) = graph.pose(first_keyframe(self.robot)) else {
             return;
+        };
+        let peer_first = |peer: RobotId| {
+            graph.pose(first_keyframe(peer)).or_else(|| {
+                // The distributed graph holds a peer only where loops touch it: its first keyframe is
+                // then placed from the earliest one the graph holds, along the peer's odometry.
+                let held = self.graph.keyframes_of(peer).next()?;
+                let odometry_held = self.chains.pose(held)?;
+                let odometry_first = self.chains.pose(first_keyframe(peer))?;
+                Some(graph.pose(held)? * odometry_held.inverse() * odometry_first)
+            })
         };
         let mut loops_with: BTreeMap<RobotId, u32> = BTreeMap::new();
         for closure in self.loops.accepted().values() {
@@ -33,21 +49,29 @@ impl RobotHost {
                 }
             }
         }
+        // Robots only the fleet's loops place, each with the robot at the other end of most of them.
+        let mut fleet_ends: BTreeMap<RobotId, BTreeMap<RobotId, u32>> = BTreeMap::new();
+        for closure in self.fleet_loops.in_backend() {
+            let ends = [closure.target.robot, closure.source.robot];
+            for (robot, other) in [(ends[0], ends[1]), (ends[1], ends[0])] {
+                if robot != self.robot && robot != other && !loops_with.contains_key(&robot) {
+                    *fleet_ends.entry(robot).or_default().entry(other).or_default() += 1;
+                }
+            }
+        }
         let own = loops_with
             .into_iter()
-            .filter_map(|(peer, loops)| {
-                let peer_first = graph.pose(first(peer)).or_else(|| {
-                    // The distributed graph holds a peer only where loops touch it: its first keyframe
-                    // is then placed from the earliest one the graph holds, along the peer's odometry.
-                    let held = self.graph.keyframes_of(peer).next()?;
-                    let odometry_held = self.chains.pose(held)?;
-                    let odometry_first = self.chains.pose(first(peer))?;
-                    Some(graph.pose(held)? * odometry_held.inverse() * odometry_first)
-                })?;
-                Some((peer, (own_first.inverse() * peer_first, loops)))
+            .filter_map(|(peer, loops)| Some((peer, (own_first.inverse() * peer_first(peer)?, loops))))
+            .collect();
+        let through_fleet = fleet_ends
+            .into_iter()
+            .filter_map(|(robot, others)| {
+                let (via, _) = others.into_iter().max_by_key(|&(other, loops)| (loops, other))?;
+                Some((robot, (own_first.inverse() * peer_first(robot)?, via)))
             })
             .collect();
         self.frames.set_own(own);
+        self.frames.set_through_fleet(through_fleet);
         let now_nanos = self.now_nanos();
         self.frames.note_joined(self.robot, now_nanos);
     }
