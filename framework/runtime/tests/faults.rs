@@ -189,6 +189,20 @@ fn thirty_percent_loss_still_finds_inter_robot_loops() {
         involving(&loops, 0) >= 3 && involving(&loops, 2) >= 3,
         "too few inter-robot loops under 30% loss: {loops:?}"
     );
+    // A loop registered against a peer keyframe whose odometry was lost waits for it: none is refused
+    // for want of a pose.
+    for robot in &lossy.robots {
+        for standing in robot.standing_loops() {
+            let reason = standing.reason.unwrap_or_default();
+            assert!(
+                !reason.contains("is not in the graph"),
+                "robot {} refused loop {} ↔ {}: {reason}",
+                robot.robot(),
+                standing.closure.target,
+                standing.closure.source
+            );
+        }
+    }
     // A lost announcement is stated again: every loop a robot found and kept reached its peer.
     for robot in &lossy.robots {
         for (id, closure) in robot.accepted_loops() {

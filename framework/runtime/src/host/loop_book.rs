@@ -137,7 +137,8 @@ pub(crate) struct LoopBook {
     rejection_reasons: BTreeMap<LoopId, String>,
     /// The loops peers found and sent, judged by this robot's verifier like its own.
     from_peers: BTreeSet<LoopId>,
-    /// Peer loops waiting for the odometry that places their keyframes before they can be judged.
+    /// Loops (peers' and its own against a peer's keyframe) waiting for the odometry that places their
+    /// keyframes before they can be judged.
     awaiting_poses: BTreeSet<LoopId>,
     /// Event counters; [`LoopBook::stats`] completes them with the loops' current standing.
     counters: LoopStats,
@@ -233,17 +234,17 @@ impl LoopBook {
         self.unaccepted.insert(closure.id, closure);
     }
 
-    /// Holds a peer loop back until the odometry places both its keyframes.
+    /// Holds a loop back until the odometry places both its keyframes.
     pub(crate) fn await_poses(&mut self, id: LoopId) {
         self.awaiting_poses.insert(id);
     }
 
-    /// How many peer loops wait for odometry.
+    /// How many loops wait for odometry.
     pub(crate) fn awaiting_poses_count(&self) -> usize {
         self.awaiting_poses.len()
     }
 
-    /// The peer loops that waited for odometry, to judge again (those that still cannot be wait again).
+    /// The loops that waited for odometry, to judge again (those that still cannot be wait again).
     pub(crate) fn take_awaiting_poses(&mut self) -> Vec<LoopClosure> {
         std::mem::take(&mut self.awaiting_poses)
             .into_iter()

@@ -5,7 +5,7 @@
 use nalgebra::{UnitQuaternion, Vector3};
 use skid_config::ResolvedConfig;
 use skid_core::slots::{CoarseAlignment, LoopCandidate, LoopClosure, Verdict, Verifier};
-use skid_core::{KeyframeId, LoopId, PluginError, Pose, Slot};
+use skid_core::{CloudView, KeyframeId, LoopId, PluginError, Pose, Slot};
 
 use super::RobotHost;
 use super::announced::Audience;
@@ -101,6 +101,15 @@ impl RobotHost {
         };
         let closure = self.loops.new_loop(pair, target_from_source, loop_information());
         tracing::debug!(robot = %self.robot, id = ?closure.id, target = %candidate.target, source = %candidate.source, translation_m = ?target_from_source.translation.vector.as_slice(), "loop candidate: registered");
+        if self.chains.pose(closure.target).is_none() || self.chains.pose(closure.source).is_none() {
+            // The peer's odometry for its keyframe has not arrived (lost on the link, or late): the
+            // verifier cannot place the loop yet, so it waits, as a peer's loop does, and is judged with
+            // its clouds once the odometry comes ([`Self::judge_own_loop`]).
+            tracing::debug!(robot = %self.robot, id = ?closure.id, "loop waits for the peer's odometry");
+            self.loops.submitted(closure.clone());
+            self.loops.await_poses(closure.id);
+            return Ok(());
+        }
         let verdict = self.judge(
             config,
             LoopCandidate {
@@ -110,6 +119,35 @@ impl RobotHost {
             },
         )?;
         self.loops.submitted(closure);
+        self.apply_verdict(config, verdict, outbox)
+    }
+
+    /// Judges a registered loop of this robot's own that waited for the peer's odometry, with its clouds
+    /// when both are still held (on its pose alone otherwise, as a peer's loop is judged).
+    pub(crate) fn judge_own_loop(
+        &mut self,
+        config: &ResolvedConfig,
+        closure: LoopClosure,
+        outbox: &mut Vec<skid_protocol::Message>,
+    ) -> Result<(), RuntimeError> {
+        if self.chains.pose(closure.target).is_none() || self.chains.pose(closure.source).is_none() {
+            self.loops.await_poses(closure.id);
+            return Ok(());
+        }
+        let target_cloud = self.cloud_of(closure.target);
+        let source_cloud = self.cloud_of(closure.source);
+        let (target_view, source_view) = match (&target_cloud, &source_cloud) {
+            (Some(target), Some(source)) => (target.view(), source.view()),
+            _ => (CloudView::default(), CloudView::default()),
+        };
+        let verdict = self.judge(
+            config,
+            LoopCandidate {
+                closure,
+                target_cloud: target_view,
+                source_cloud: source_view,
+            },
+        )?;
         self.apply_verdict(config, verdict, outbox)
     }
 

@@ -357,7 +357,10 @@ impl RobotHost {
             self.add_loop_to_backend(config, &closure)?;
         }
         for closure in self.loops.take_awaiting_poses() {
-            self.judge_peer_loop(config, closure, outbox)?;
+            match self.loops.is_from_peer(closure.id) {
+                true => self.judge_peer_loop(config, closure, outbox)?,
+                false => self.judge_own_loop(config, closure, outbox)?,
+            }
         }
         if config.loops.fleet_loops {
             self.judge_fleet_loops(config)?;
