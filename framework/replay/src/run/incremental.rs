@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
-use skid_core::slots::{LoopClosure, OptimizeBudget, Verdict, Verifier};
+use skid_core::slots::{GraphView, LoopClosure, OptimizeBudget, Verdict, Verifier};
 use skid_core::{LoopId, PluginResult, RobotId};
 
 use super::{
@@ -22,27 +22,10 @@ pub(super) fn incremental(
     factory: &dyn PluginFactory,
     budget: OptimizeBudget,
 ) -> Result<ReplayOutcome, ReplayError> {
-    let mut graphs = Vec::new();
-    let mut verifiers = Vec::new();
-    let mut fleet_verifiers = Vec::new();
-    let fleet = factory.fleet_loops();
-    for robot in (0..problem.robots.len() as u32).map(RobotId) {
-        let fail = |error| plugin_error(robot, error);
-        graphs.push(Graph::new(factory.backend(robot).map_err(fail)?, [robot]));
-        verifiers.push(factory.verifier(robot).map_err(fail)?);
-        if fleet {
-            fleet_verifiers.push(FleetVerifier {
-                verifier: factory.verifier(robot).map_err(fail)?,
-                submitted: BTreeSet::new(),
-                accepted: BTreeSet::new(),
-            });
-        }
-    }
+    let mut robots = Robots::new(problem.robots.len(), factory)?;
     let mut known = Known::default();
     let mut fates: BTreeMap<LoopId, LoopFate> = BTreeMap::new();
     let mut closures: BTreeMap<LoopId, LoopClosure> = BTreeMap::new();
-    // Each robot's frames as it last reported them.
-    let mut reported = FrameTables::new();
     let mut update_ms = Vec::with_capacity(problem.events.len());
     let mut robot_update_ms = Vec::with_capacity(problem.events.len());
     for event in &problem.events {
@@ -50,18 +33,18 @@ pub(super) fn incremental(
         let fail = |error| plugin_error(robot, error);
         let started = Instant::now();
         // Each robot's own work in this event, in milliseconds (`None`: it did nothing).
-        let mut robot_ms: Vec<Option<f64>> = vec![None; graphs.len()];
+        let mut robot_ms: Vec<Option<f64>> = vec![None; robots.graphs.len()];
         for item in &event.items {
             known.learn(item);
             match item {
                 Item::Keyframe { .. } => {}
                 Item::Odometry { measurement, .. } => {
-                    for graph in &mut graphs {
+                    for graph in &mut robots.graphs {
                         graph.add_keyframe(measurement.source, &known).map_err(fail)?;
                     }
                 }
                 Item::Prior { id, .. } => {
-                    for graph in &mut graphs {
+                    for graph in &mut robots.graphs {
                         graph.add_keyframe(*id, &known).map_err(fail)?;
                     }
                 }
@@ -71,71 +54,43 @@ pub(super) fn incremental(
                     if !label.potential_outlier {
                         // A known inlier is not submitted.
                         fate.accepted = true;
-                        let mut sharing = Sharing {
-                            graphs: &mut graphs,
-                            fleet_verifiers: &mut fleet_verifiers,
-                            closures: &closures,
-                            known: &known,
-                            robot_ms: &mut robot_ms,
-                        };
+                        let mut sharing = robots.sharing(&closures, &known, &mut robot_ms);
                         sharing.share_accepted(closure).map_err(fail)?;
                         continue;
                     }
                     fate.undecided = true;
                     let judged = Instant::now();
-                    let view = VerifierView {
-                        chains: &known.chains,
-                        backend: Some(graphs[robot.0 as usize].backend.graph()),
-                        tables: &reported,
-                        me: Some(robot),
-                    };
-                    let verdict =
-                        submit(verifiers[robot.0 as usize].as_mut(), closure, &view).map_err(fail)?;
+                    let verdict = robots
+                        .ask(robot, &known, |verifier, view| submit(verifier, closure, view))
+                        .map_err(fail)?;
                     add_ms(&mut robot_ms, robot, judged);
                     apply_to_fates(&mut fates, &verdict);
-                    let mut sharing = Sharing {
-                        graphs: &mut graphs,
-                        fleet_verifiers: &mut fleet_verifiers,
-                        closures: &closures,
-                        known: &known,
-                        robot_ms: &mut robot_ms,
-                    };
+                    let mut sharing = robots.sharing(&closures, &known, &mut robot_ms);
                     sharing.apply(&verdict).map_err(fail)?;
                 }
             }
         }
-        optimize_changed(&mut graphs, &known, budget, &mut robot_ms).map_err(fail)?;
+        optimize_changed(&mut robots.graphs, &known, budget, &mut robot_ms).map_err(fail)?;
         // Frames that moved reach the other robots, whose verifiers re-judge their loops against the
         // cycles through third robots; what that changes is solved at once.
-        if report_moved_frames(&graphs, &mut reported) {
-            for (index, verifier) in verifiers.iter_mut().enumerate() {
-                let me = RobotId(index as u32);
+        if robots.report_moved_frames() {
+            for me in (0..robots.graphs.len() as u32).map(RobotId) {
+                let fail = |error| plugin_error(me, error);
                 let judged = Instant::now();
-                let view = VerifierView {
-                    chains: &known.chains,
-                    backend: Some(graphs[index].backend.graph()),
-                    tables: &reported,
-                    me: Some(me),
-                };
-                let verdict = verifier
-                    .reconsider(&view)
-                    .map_err(|error| plugin_error(me, error))?;
+                let verdict = robots
+                    .ask(me, &known, |verifier, view| verifier.reconsider(view))
+                    .map_err(fail)?;
                 add_ms(&mut robot_ms, me, judged);
                 apply_to_fates(&mut fates, &verdict);
-                let mut sharing = Sharing {
-                    graphs: &mut graphs,
-                    fleet_verifiers: &mut fleet_verifiers,
-                    closures: &closures,
-                    known: &known,
-                    robot_ms: &mut robot_ms,
-                };
-                sharing.apply(&verdict).map_err(|error| plugin_error(me, error))?;
+                let mut sharing = robots.sharing(&closures, &known, &mut robot_ms);
+                sharing.apply(&verdict).map_err(fail)?;
             }
-            optimize_changed(&mut graphs, &known, budget, &mut robot_ms).map_err(fail)?;
+            optimize_changed(&mut robots.graphs, &known, budget, &mut robot_ms).map_err(fail)?;
         }
         update_ms.push(started.elapsed().as_secs_f64() * 1e3);
         robot_update_ms.extend(robot_ms.into_iter().flatten());
     }
+    let graphs = robots.graphs;
     weigh(&mut fates, &graphs);
     let snapshots: Vec<RobotGraph> = graphs.iter().map(|graph| graph.snapshot(&known)).collect();
     let estimates = snapshots
@@ -154,6 +109,90 @@ pub(super) fn incremental(
     })
 }
 
+/// Every robot's back-end and verifiers, and the frames each last reported.
+struct Robots {
+    graphs: Vec<Graph>,
+    verifiers: Vec<Box<dyn Verifier>>,
+    /// Empty without `fleet_loops`.
+    fleet_verifiers: Vec<FleetVerifier>,
+    reported: FrameTables,
+}
+
+impl Robots {
+    fn new(count: usize, factory: &dyn PluginFactory) -> Result<Self, ReplayError> {
+        let mut robots = Self {
+            graphs: Vec::new(),
+            verifiers: Vec::new(),
+            fleet_verifiers: Vec::new(),
+            reported: FrameTables::new(),
+        };
+        for robot in (0..count as u32).map(RobotId) {
+            let fail = |error| plugin_error(robot, error);
+            robots
+                .graphs
+                .push(Graph::new(factory.backend(robot).map_err(fail)?, [robot]));
+            robots.verifiers.push(factory.verifier(robot).map_err(fail)?);
+            if factory.fleet_loops() {
+                robots.fleet_verifiers.push(FleetVerifier {
+                    verifier: factory.verifier(robot).map_err(fail)?,
+                    submitted: BTreeSet::new(),
+                    accepted: BTreeSet::new(),
+                });
+            }
+        }
+        Ok(robots)
+    }
+
+    /// Asks `robot`'s own verifier through the view its host would give it: the chains, its back-end's
+    /// poses and the frames reported so far.
+    fn ask(
+        &mut self,
+        robot: RobotId,
+        known: &Known,
+        ask: impl FnOnce(&mut dyn Verifier, &dyn GraphView) -> PluginResult<Verdict>,
+    ) -> PluginResult<Verdict> {
+        let index = robot.0 as usize;
+        let view = VerifierView {
+            chains: &known.chains,
+            backend: Some(self.graphs[index].backend.graph()),
+            tables: &self.reported,
+            me: Some(robot),
+        };
+        ask(self.verifiers[index].as_mut(), &view)
+    }
+
+    /// What sharing a verdict touches.
+    fn sharing<'a>(
+        &'a mut self,
+        closures: &'a BTreeMap<LoopId, LoopClosure>,
+        known: &'a Known,
+        robot_ms: &'a mut [Option<f64>],
+    ) -> Sharing<'a> {
+        Sharing {
+            graphs: &mut self.graphs,
+            fleet_verifiers: &mut self.fleet_verifiers,
+            closures,
+            known,
+            robot_ms,
+        }
+    }
+
+    /// Updates each robot's reported frames where they moved enough to be sent again; returns whether
+    /// any did.
+    fn report_moved_frames(&mut self) -> bool {
+        let mut moved = false;
+        for (index, graph) in self.graphs.iter().enumerate() {
+            let robot = RobotId(index as u32);
+            let now = graph.merged_frames(robot);
+            if worth_reporting(self.reported.get(&robot), &now) {
+                self.reported.insert(robot, now);
+                moved = true;
+            }
+        }
+        moved
+    }
+}
+
 /// Every graph that changed adds the deferred loops whose keyframes arrived and optimises.
 fn optimize_changed(
     graphs: &mut [Graph],
@@ -169,21 +208,6 @@ fn optimize_changed(
         }
     }
     Ok(())
-}
-
-/// Updates each robot's reported frames where they moved enough to be sent again; returns whether any
-/// did.
-fn report_moved_frames(graphs: &[Graph], reported: &mut FrameTables) -> bool {
-    let mut moved = false;
-    for (index, graph) in graphs.iter().enumerate() {
-        let robot = RobotId(index as u32);
-        let now = graph.merged_frames(robot);
-        if worth_reporting(reported.get(&robot), &now) {
-            reported.insert(robot, now);
-            moved = true;
-        }
-    }
-    moved
 }
 
 /// What sharing a robot's verdict with the fleet touches.
