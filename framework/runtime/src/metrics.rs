@@ -294,14 +294,12 @@ fn alignment_metrics(fleet: &Fleet<'_>, beta_index: usize) -> Result<AlignmentMe
     let fleet_meeting_frame_error =
         meeting_with_fleet(&placed, (gt_beta, est_beta), &alpha_from_beta, MEETING_RADIUS_M);
     let beta_path_m = path_length_m(gt_beta).max(f64::MIN_POSITIVE);
-    let joined_via = (shared_keyframes == 0)
-        .then(|| {
-            alpha
-                .joined_frames()
-                .get(&beta.robot())
-                .and_then(|joined| joined.via)
-        })
-        .flatten()
+    // Through another robot's frames (no β keyframes in α's graph) or through the fleet's loops (β's
+    // keyframes there, placed by loops between β and others).
+    let joined_via = alpha
+        .joined_frames()
+        .get(&beta.robot())
+        .and_then(|joined| joined.via)
         .map(|via| via.0);
     let joined_after_s = alpha
         .first_joined_nanos()
