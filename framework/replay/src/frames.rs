@@ -125,3 +125,91 @@ impl VerifierView<'_> {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    fn pose(x: f64, y: f64, yaw_deg: f64) -> Pose {
+        Pose::new(Vector3::new(x, y, 0.0), Vector3::z() * yaw_deg.to_radians())
+    }
+
+    fn close(a: &Pose, b: &Pose) -> bool {
+        (a.inverse() * b).translation.vector.norm() < 1e-9 && (a.inverse() * b).rotation.angle() < 1e-9
+    }
+
+    #[test]
+    fn frames_compose_through_a_third_robot_for_either_end_of_a_pair() {
+        let (r0, r1, r2) = (RobotId(0), RobotId(1), RobotId(2));
+        let (r0_from_r2, r2_from_r1) = (pose(10.0, 0.0, 90.0), pose(5.0, 2.0, -30.0));
+        let tables: FrameTables = BTreeMap::from([
+            (r0, BTreeMap::from([(r2, r0_from_r2)])),
+            (r1, BTreeMap::from([(r2, r2_from_r1.inverse())])),
+            (r2, BTreeMap::from([(r0, r0_from_r2.inverse()), (r1, r2_from_r1)])),
+        ]);
+        let chains = OdometryChains::default();
+        let view = |me| VerifierView {
+            chains: &chains,
+            backend: None,
+            tables: &tables,
+            me,
+        };
+        let expected = r0_from_r2 * r2_from_r1;
+        for me in [None, Some(r0), Some(r1)] {
+            let through = view(me).frames_through_others(r0, r1);
+            assert_eq!(through.len(), 1, "{me:?}");
+            assert_eq!(through[0].0, r2);
+            assert!(close(&through[0].1, &expected), "{me:?}: {:?}", through[0].1);
+        }
+        assert!(
+            view(Some(r2)).frames_through_others(r0, r1).is_empty(),
+            "only a robot of the pair asks"
+        );
+        assert!(
+            view(None).frames_through_others(r0, r2).is_empty(),
+            "no third robot between 0 and 2"
+        );
+    }
+
+    #[test]
+    fn frames_are_reported_again_only_when_they_move() {
+        let r1 = RobotId(1);
+        let last = BTreeMap::from([(r1, pose(1.0, 0.0, 0.0))]);
+        assert!(worth_reporting(None, &last));
+        assert!(!worth_reporting(None, &BTreeMap::new()));
+        assert!(!worth_reporting(
+            Some(&last),
+            &BTreeMap::from([(r1, pose(1.1, 0.0, 0.2))])
+        ));
+        assert!(worth_reporting(
+            Some(&last),
+            &BTreeMap::from([(r1, pose(1.3, 0.0, 0.0))])
+        ));
+        assert!(worth_reporting(
+            Some(&last),
+            &BTreeMap::from([(r1, pose(1.0, 0.0, 1.0))])
+        ));
+        assert!(worth_reporting(Some(&last), &BTreeMap::new()));
+    }
+
+    #[test]
+    fn a_robot_places_only_the_robots_it_holds_loops_with() {
+        let (r0, r1, r2) = (RobotId(0), RobotId(1), RobotId(2));
+        let first = |robot: RobotId| Some(pose(10.0 * f64::from(robot.0), 0.0, 0.0));
+        let loop_between = |a: RobotId, b: RobotId| LoopClosure {
+            id: skid_core::LoopId(u64::from(a.0) * 10 + u64::from(b.0)),
+            target: KeyframeId { robot: a, index: 3 },
+            source: KeyframeId { robot: b, index: 4 },
+            target_from_source: Pose::identity(),
+            information: skid_core::Information::identity(),
+        };
+        let loops = [loop_between(r0, r1), loop_between(r1, r2), loop_between(r1, r1)];
+        let frames = merged_frames(r1, first, loops.iter());
+        assert_eq!(frames.len(), 2);
+        assert!(close(&frames[&r0], &pose(-10.0, 0.0, 0.0)));
+        assert!(close(&frames[&r2], &pose(10.0, 0.0, 0.0)));
+        assert!(merged_frames(r0, first, loops.iter()).contains_key(&r1));
+        assert!(merged_frames(r0, |_| None, loops.iter()).is_empty());
+    }
+}
