@@ -70,7 +70,7 @@ pub(crate) fn placements(
             Along::Estimate => graph
                 .pose(first)
                 .zip(graph.pose(id))
-                .map(|(f, p)| f.inverse() * p),
+                .map(|(first_pose, pose)| first_pose.inverse() * pose),
             Along::Odometry => None,
         };
         estimated.or_else(|| Some(graph.odometry_between(first, id)?.target_from_source))
