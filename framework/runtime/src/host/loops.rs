@@ -101,14 +101,12 @@ impl RobotHost {
         };
         let closure = self.loops.new_loop(pair, target_from_source, loop_information());
         tracing::debug!(robot = %self.robot, id = ?closure.id, target = %candidate.target, source = %candidate.source, translation_m = ?target_from_source.translation.vector.as_slice(), "loop candidate: registered");
-        if self.chains.pose(closure.target).is_none() || self.chains.pose(closure.source).is_none() {
+        if !self.odometry_places(&closure) {
             // The peer's odometry for its keyframe has not arrived (lost on the link, or late): the
             // verifier cannot place the loop yet, so it waits, as a peer's loop does, and is judged with
-            // its clouds once the odometry comes ([`Self::judge_own_loop`]).
-            tracing::debug!(robot = %self.robot, id = ?closure.id, "loop waits for the peer's odometry");
+            // its clouds once the odometry comes ([`Self::judge_when_placed`]).
             self.loops.submitted(closure.clone());
-            self.loops.await_poses(closure.id);
-            return Ok(());
+            return self.judge_when_placed(config, closure, outbox);
         }
         let verdict = self.judge(
             config,
@@ -122,30 +120,39 @@ impl RobotHost {
         self.apply_verdict(config, verdict, outbox)
     }
 
-    /// Judges a registered loop of this robot's own that waited for the peer's odometry, with its clouds
-    /// when both are still held (on its pose alone otherwise, as a peer's loop is judged).
-    pub(crate) fn judge_own_loop(
+    /// Whether the odometry known here places both keyframes of a loop.
+    fn odometry_places(&self, closure: &LoopClosure) -> bool {
+        self.chains.pose(closure.target).is_some() && self.chains.pose(closure.source).is_some()
+    }
+
+    /// Judges a submitted loop once the odometry known here places both its keyframes (until then it
+    /// waits, outside the verifier): a peer's loop on its pose alone, one of this robot's own with its
+    /// clouds when both are still held (on its pose alone otherwise).
+    pub(crate) fn judge_when_placed(
         &mut self,
         config: &ResolvedConfig,
         closure: LoopClosure,
         outbox: &mut Vec<skid_protocol::Message>,
     ) -> Result<(), RuntimeError> {
-        if self.chains.pose(closure.target).is_none() || self.chains.pose(closure.source).is_none() {
+        if !self.odometry_places(&closure) {
+            tracing::debug!(robot = %self.robot, target = %closure.target, source = %closure.source, "loop waits for odometry");
             self.loops.await_poses(closure.id);
             return Ok(());
         }
-        let target_cloud = self.cloud_of(closure.target);
-        let source_cloud = self.cloud_of(closure.source);
-        let (target_view, source_view) = match (&target_cloud, &source_cloud) {
-            (Some(target), Some(source)) => (target.view(), source.view()),
-            _ => (CloudView::default(), CloudView::default()),
+        let clouds = match self.loops.is_from_peer(closure.id) {
+            true => None,
+            false => self.cloud_of(closure.target).zip(self.cloud_of(closure.source)),
         };
+        let (target_cloud, source_cloud) = clouds.as_ref().map_or(
+            (CloudView::default(), CloudView::default()),
+            |(target, source)| (target.view(), source.view()),
+        );
         let verdict = self.judge(
             config,
             LoopCandidate {
                 closure,
-                target_cloud: target_view,
-                source_cloud: source_view,
+                target_cloud,
+                source_cloud,
             },
         )?;
         self.apply_verdict(config, verdict, outbox)

@@ -2,8 +2,8 @@
 //! and replies, loops).
 
 use skid_config::ResolvedConfig;
-use skid_core::slots::{DescriptorBuf, LoopCandidate, LoopClosure};
-use skid_core::{Cloud, CloudView, Information, KeyframeId, RobotId};
+use skid_core::slots::DescriptorBuf;
+use skid_core::{Cloud, Information, KeyframeId, RobotId};
 use skid_protocol::{CloudMsg, CompressedPoints, Loops, Message, OdomChain, PoseMsg};
 
 use super::RobotHost;
@@ -241,7 +241,7 @@ impl RobotHost {
             }
             let closure = self.loops.new_loop(pair, target_from_source, information);
             self.loops.received(closure.clone());
-            self.judge_peer_loop(config, closure, outbox)?;
+            self.judge_when_placed(config, closure, outbox)?;
         }
         for pair in loops.retracted {
             if !self.joins_sender_and_me(from, pair) {
@@ -321,30 +321,6 @@ impl RobotHost {
         }
     }
 
-    /// Judges a loop a peer found, once the odometry known here places both its keyframes (until then
-    /// it waits, outside the verifier).
-    fn judge_peer_loop(
-        &mut self,
-        config: &ResolvedConfig,
-        closure: LoopClosure,
-        outbox: &mut Vec<Message>,
-    ) -> Result<(), RuntimeError> {
-        if self.chains.pose(closure.target).is_none() || self.chains.pose(closure.source).is_none() {
-            tracing::debug!(robot = %self.robot, target = %closure.target, source = %closure.source, "peer loop waits for odometry");
-            self.loops.await_poses(closure.id);
-            return Ok(());
-        }
-        let verdict = self.judge(
-            config,
-            LoopCandidate {
-                closure,
-                target_cloud: CloudView::default(),
-                source_cloud: CloudView::default(),
-            },
-        )?;
-        self.apply_verdict(config, verdict, outbox)
-    }
-
     /// Adds deferred loops whose keyframes are now all in the back-end, and judges the peer loops
     /// whose keyframes the odometry now places.
     fn retry_deferred_loops(
@@ -357,10 +333,7 @@ impl RobotHost {
             self.add_loop_to_backend(config, &closure)?;
         }
         for closure in self.loops.take_awaiting_poses() {
-            match self.loops.is_from_peer(closure.id) {
-                true => self.judge_peer_loop(config, closure, outbox)?,
-                false => self.judge_own_loop(config, closure, outbox)?,
-            }
+            self.judge_when_placed(config, closure, outbox)?;
         }
         if config.loops.fleet_loops {
             self.judge_fleet_loops(config)?;
