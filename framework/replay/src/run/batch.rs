@@ -72,10 +72,7 @@ pub(super) fn batch(
     for _ in 0..BATCH_RECONSIDER_ROUNDS {
         let tables: FrameTables = (0..problem.robots.len() as u32)
             .map(RobotId)
-            .map(|robot| {
-                let frames = graph.merged_frames(robot);
-                (robot, frames)
-            })
+            .map(|robot| (robot, graph.merged_frames(robot)))
             .collect();
         let view = VerifierView {
             chains: &known.chains,
