@@ -16,8 +16,10 @@
 //!   alike to the descriptor as well ([`crate::predicted`]);
 //! - it closes the cycle: where a third robot has merged with both robots, the frame through it
 //!   ([`GraphView::frames_through_others`]) agrees with most of the set's loops, at each loop's place,
-//!   within `cycle_tolerance_m` and `cycle_tolerance_deg`. Aliasing that fools one pair of robots rarely
-//!   fools two pairs into the same wrong frame.
+//!   within `cycle_tolerance_m` and `cycle_tolerance_deg`, plus `cycle_drift_fraction` of the route
+//!   from the loop's keyframes to the robots' nearest inter-robot ties ([`crate::ties`]): the frame is
+//!   rigid, the odometry away from where it was fixed is not. Aliasing that fools one pair of robots
+//!   rarely fools two pairs into the same wrong frame.
 //!
 //! A granted set that stops dominating (a rival grows) is withdrawn, and its loops are retracted; when
 //! the rival later dominates in turn, it is granted and the merge is redone in its frame. This is the
@@ -33,6 +35,7 @@ use crate::clique::{Graph, induced};
 use crate::consistency::PcmLoop;
 use crate::dense::consistent_core;
 use crate::predicted::{Along, OverlapRule, placements, predicted_overlaps};
+use crate::ties::Ties;
 
 /// What decides a grant.
 #[derive(Clone, Copy, Debug)]
@@ -41,6 +44,7 @@ pub(crate) struct GrantRule {
     pub dominance_ratio: f64,
     pub cycle_tolerance_m: f64,
     pub cycle_tolerance_rad: f64,
+    pub cycle_drift_fraction: f64,
     pub together_within_s: f64,
     pub together_within_m: f64,
     /// The peeling fraction for the rival's core (PCM's own `min_consistent_fraction`).
@@ -122,12 +126,14 @@ pub(crate) fn judge(
 }
 
 /// Where each member puts robot b against where each frame through a third robot puts it: per third
-/// robot, the (metres, radians) between the two at every member's place.
+/// robot, at every member's place, the (metres, radians) between the two and the drift the route from
+/// the member's keyframes to the robots' nearest ties allows on top of the tolerance, in metres.
 fn offsets_through_others(
+    rule: &GrantRule,
     loops: &[PcmLoop],
     members: &[usize],
     graph: &dyn GraphView,
-) -> Vec<(RobotId, Vec<(f64, f64)>)> {
+) -> Vec<(RobotId, Vec<Offset>)> {
     let Some(first) = members.first().and_then(|&k| loops.get(k)) else {
         return Vec::new();
     };
@@ -144,16 +150,33 @@ fn offsets_through_others(
     if placed.is_empty() {
         return Vec::new();
     }
+    let drift_allowed_m: Vec<f64> = if rule.cycle_drift_fraction > 0.0 {
+        let ties = Ties::of(graph, &[a, b]);
+        members
+            .iter()
+            .map(|&k| {
+                let route_m = |id| ties.distance_m(id).unwrap_or(0.0);
+                rule.cycle_drift_fraction * (route_m(loops[k].target) + route_m(loops[k].source))
+            })
+            .collect()
+    } else {
+        vec![0.0; members.len()]
+    };
     through
         .into_iter()
         .map(|(via, through)| {
             let offsets = placed
                 .iter()
-                .map(|(frame, b_first_from_source)| {
+                .zip(&drift_allowed_m)
+                .map(|((frame, b_first_from_source), &drift_allowed_m)| {
                     let by_loop = frame * b_first_from_source;
                     let by_cycle = through * b_first_from_source;
                     let change = by_loop.inverse() * by_cycle;
-                    (change.translation.vector.norm(), change.rotation.angle())
+                    Offset {
+                        off_m: change.translation.vector.norm(),
+                        off_rad: change.rotation.angle(),
+                        drift_allowed_m,
+                    }
                 })
                 .collect();
             (via, offsets)
@@ -161,26 +184,39 @@ fn offsets_through_others(
         .collect()
 }
 
-fn disagrees(rule: &GrantRule, (off_m, off_rad): (f64, f64)) -> bool {
-    off_m > rule.cycle_tolerance_m || off_rad > rule.cycle_tolerance_rad
+/// How far a frame through a third robot puts robot b from where one loop puts it.
+#[derive(Clone, Copy, Debug)]
+struct Offset {
+    off_m: f64,
+    off_rad: f64,
+    /// What the odometry may have drifted between the loop's place and the robots' nearest ties.
+    drift_allowed_m: f64,
 }
 
-/// The first third robot whose frame disagrees with most of the members, at each member's place.
+impl Offset {
+    /// Beyond the tolerance and the drift the route allows: the frame refutes the loop; within them it
+    /// vouches for it.
+    fn refutes(&self, rule: &GrantRule) -> bool {
+        self.off_m > rule.cycle_tolerance_m + self.drift_allowed_m || self.off_rad > rule.cycle_tolerance_rad
+    }
+}
+
+/// The first third robot whose frame refutes most of the members, at each member's place.
 fn contradiction(
     rule: &GrantRule,
     loops: &[PcmLoop],
     members: &[usize],
     graph: &dyn GraphView,
 ) -> Option<Withheld> {
-    for (via, mut offsets) in offsets_through_others(loops, members, graph) {
-        let disagreeing = offsets.iter().filter(|&&offset| disagrees(rule, offset)).count();
-        if 2 * disagreeing > offsets.len() {
-            offsets.sort_by(|x, y| x.0.total_cmp(&y.0));
-            let (off_m, off_rad) = offsets[offsets.len() / 2];
+    for (via, mut offsets) in offsets_through_others(rule, loops, members, graph) {
+        let refuting = offsets.iter().filter(|offset| offset.refutes(rule)).count();
+        if 2 * refuting > offsets.len() {
+            offsets.sort_by(|x, y| x.off_m.total_cmp(&y.off_m));
+            let median = offsets[offsets.len() / 2];
             return Some(Withheld::Contradicted {
                 via,
-                off_m,
-                off_deg: off_rad.to_degrees(),
+                off_m: median.off_m,
+                off_deg: median.off_rad.to_degrees(),
             });
         }
     }
@@ -195,10 +231,10 @@ pub(crate) fn agrees_with_cycle(
     members: &[usize],
     graph: &dyn GraphView,
 ) -> bool {
-    let through = offsets_through_others(loops, members, graph);
+    let through = offsets_through_others(rule, loops, members, graph);
     !through.is_empty()
         && through.iter().all(|(_, offsets)| {
-            offsets.len() == members.len() && offsets.iter().all(|&offset| !disagrees(rule, offset))
+            offsets.len() == members.len() && offsets.iter().all(|offset| !offset.refutes(rule))
         })
 }
 

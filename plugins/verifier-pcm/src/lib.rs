@@ -25,6 +25,7 @@ pub mod fitness;
 pub mod lie;
 pub mod pcm;
 mod predicted;
+mod ties;
 pub mod verifier;
 
 use skid_core::slots::Verifier;

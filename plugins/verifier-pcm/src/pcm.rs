@@ -62,6 +62,12 @@ pub struct PcmParams {
     /// set is not granted ([`crate::earned`]).
     pub cycle_tolerance_m: f64,
     pub cycle_tolerance_deg: f64,
+    /// The cycle refutes a loop only beyond `cycle_tolerance_m` plus this fraction of the route from the
+    /// loop's keyframes to each robot's nearest keyframe that an inter-robot loop in the graph ties
+    /// (the frame through the third robot is fixed there; the odometry drifts away from it). The default
+    /// 0.01 is the top of real LiDAR(-inertial) odometry's drift, 0.3–1 % of the path. The same allowance
+    /// holds where the cycle vouches for a set (`min_loops_with_cycle`). 0 turns it off.
+    pub cycle_drift_fraction: f64,
     /// An inter-robot set is not granted when two or more of its loops join keyframes recorded within
     /// `together_within_s` seconds of each other and measured within `together_within_m` metres: the
     /// robots would have stood in one place at one time ([`crate::earned`]). Either 0 turns it off; it is
@@ -98,6 +104,7 @@ impl Default for PcmParams {
             dominance_ratio: 2.0,
             cycle_tolerance_m: 5.0,
             cycle_tolerance_deg: 10.0,
+            cycle_drift_fraction: 0.01,
             together_within_s: 0.0,
             together_within_m: 2.0,
             min_loops_with_cycle: 2,
@@ -129,6 +136,7 @@ impl PcmParams {
             (self.dominance_ratio, "dominance_ratio"),
             (self.cycle_tolerance_m, "cycle_tolerance_m"),
             (self.cycle_tolerance_deg, "cycle_tolerance_deg"),
+            (self.cycle_drift_fraction, "cycle_drift_fraction"),
             (self.together_within_s, "together_within_s"),
             (self.together_within_m, "together_within_m"),
             (self.predicted_overlap_m, "predicted_overlap_m"),
@@ -156,6 +164,7 @@ impl PcmParams {
             dominance_ratio: self.dominance_ratio,
             cycle_tolerance_m: self.cycle_tolerance_m,
             cycle_tolerance_rad: self.cycle_tolerance_deg.to_radians(),
+            cycle_drift_fraction: self.cycle_drift_fraction,
             together_within_s: self.together_within_s,
             together_within_m: self.together_within_m,
             core_fraction: self.min_consistent_fraction,

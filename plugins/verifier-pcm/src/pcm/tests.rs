@@ -613,3 +613,67 @@ fn a_merge_whose_frame_predicts_places_that_do_not_look_alike_is_withdrawn() {
     let (granted, withdrawn) = merge_then_drive_on(&mut pcm, &mut graph);
     assert_eq!((granted.len(), withdrawn.len()), (6, 0));
 }
+
+/// [`CurvesWith::third_robot`] with 500 keyframes per robot (1 km of route) and robot 2's loops with
+/// robots 0 and 1 at keyframe `tie_index` of each: the frame through robot 2 is fixed there.
+struct TiedAt {
+    through: CurvesWith,
+    tie_index: u32,
+}
+
+impl GraphView for TiedAt {
+    fn pose(&self, id: KeyframeId) -> Option<Pose> {
+        self.through.pose(id)
+    }
+    fn odometry_between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
+        self.through.odometry_between(target, source)
+    }
+    fn keyframes(&self) -> Vec<KeyframeId> {
+        (0..3)
+            .flat_map(|robot| (0..500).map(move |index| KeyframeId::new(robot, index)))
+            .collect()
+    }
+    fn loops(&self) -> Vec<LoopClosure> {
+        (0..2)
+            .map(|robot| LoopClosure {
+                id: LoopId(100 + u64::from(robot)),
+                target: KeyframeId::new(2, self.tie_index),
+                source: KeyframeId::new(robot, self.tie_index),
+                target_from_source: Pose::identity(),
+                information: Information::identity(),
+            })
+            .collect()
+    }
+    fn frames_through_others(&self, a: RobotId, b: RobotId) -> Vec<(RobotId, Pose)> {
+        self.through.frames_through_others(a, b)
+    }
+}
+
+#[test]
+fn the_cycle_allows_for_the_drift_of_the_route_from_where_the_robots_are_tied() {
+    let k = KeyframeId::new;
+    // Robot 2's frame puts robot 1 8 m from where two true loops at keyframes 480 and 490 put it: beyond
+    // the 5 m tolerance, within it plus 1 % of the ~1.9 km of route back to ties at keyframe 0.
+    let eight_m_off = Pose::new(Vector3::new(8.0, 0.0, 0.0), Vector3::zeros());
+    let decided = |params: PcmParams, tie_index: u32| {
+        let graph = TiedAt {
+            through: CurvesWith::third_robot(eight_m_off),
+            tie_index,
+        };
+        let mut pcm = Pcm::new(params).unwrap();
+        for (id, index) in [(1, 480), (2, 490)] {
+            pcm.add(pcm_loop(id, k(0, index), k(1, index), Pose::identity()), &graph)
+                .unwrap();
+        }
+        pcm.accepted()
+    };
+    assert_eq!(decided(PcmParams::default(), 0), vec![LoopId(1), LoopId(2)]);
+    // Tied next to the loops, the frame is as good there as anywhere: 8 m is a disagreement.
+    assert!(decided(PcmParams::default(), 485).is_empty());
+    // Without the allowance, the fixed tolerance alone.
+    let rigid = PcmParams {
+        cycle_drift_fraction: 0.0,
+        ..PcmParams::default()
+    };
+    assert!(decided(rigid, 0).is_empty());
+}
