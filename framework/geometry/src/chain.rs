@@ -2,11 +2,18 @@
 //! step, with first-order propagation of the covariance along the chain. This is what pairwise
 //! consistency (PCM) needs for the relative odometry between two keyframes of one robot.
 //!
-//! Propagation in O(1): along a gap-free run of keyframes starting at `s`, keyframe `k` keeps the prefix
-//! `P_k = Σ_{m=s+1..k} Ad(T_{m-1}) Σ_m Ad(T_{m-1})ᵀ` (odometry-frame poses `T`, step covariances `Σ`), so
-//! the covariance of `T_l⁻¹ T_h` in keyframe `l`'s frame is `Ad(T_l⁻¹) (P_h − P_l) Ad(T_l⁻¹)ᵀ`. Keyframes
-//! normally arrive in order (O(1) each); one that fills a gap or replaces an earlier one recomputes the
-//! prefixes of the run after it.
+//! Propagation in O(1): along the keyframes of one robot from its first known one `s`, keyframe `k` keeps
+//! the prefix `P_k = Σ_{m=s+1..k} Ad(T_{m-1}) Σ_m Ad(T_{m-1})ᵀ` (odometry-frame poses `T`, step
+//! covariances `Σ`), so the covariance of `T_l⁻¹ T_h` in keyframe `l`'s frame is
+//! `Ad(T_l⁻¹) (P_h − P_l) Ad(T_l⁻¹)ᵀ`. Keyframes normally arrive in order (O(1) each); one that fills a gap
+//! or replaces an earlier one recomputes the prefixes after it.
+//!
+//! A peer's chain has gaps where its messages were lost. Every keyframe's pose is in the robot's one
+//! odometry frame, so the relative pose across a gap is known; only the steps' covariances are not. A
+//! gap of `n` steps (and a step whose own covariance has not arrived) counts as `n` of the widest step
+//! this robot's chain holds, so a loop on one side of a gap can still be tested against a loop on the
+//! other, with the uncertainty the missing steps would have added. Otherwise two true loops across a
+//! lost message would count as inconsistent for good.
 
 use std::collections::BTreeMap;
 
@@ -35,16 +42,36 @@ struct Link {
     /// Whether `step_covariance` is the step's own (false for a keyframe placed by its pose alone,
     /// before the step into it arrived).
     step_known: bool,
-    /// First keyframe of the gap-free run this keyframe belongs to.
-    run_start: u32,
     /// `P_k` of the module doc, in the odometry frame.
     prefix_covariance: Matrix6<f64>,
+}
+
+/// One robot's keyframes by index, and the widest step covariance among them (the stand-in for a
+/// missing step).
+#[derive(Clone, Debug, Default)]
+struct Chain {
+    links: BTreeMap<u32, Link>,
+    widest_step: Option<Information>,
+}
+
+impl Chain {
+    /// The covariance `link` adds to the prefix of the keyframe `previous_index` before it, and whether
+    /// it is the link's own: its own step's when that is the step from `previous_index`, else as many
+    /// of the widest step as the steps it stands for.
+    fn step_from(&self, previous_index: u32, index: u32, link: &Link) -> (Information, bool) {
+        let steps = index.saturating_sub(previous_index);
+        if steps == 1 && link.step_known {
+            return (link.step_covariance, true);
+        }
+        let widest = self.widest_step.unwrap_or(link.step_covariance);
+        (widest * f64::from(steps), false)
+    }
 }
 
 /// Odometry chains of any number of robots.
 #[derive(Clone, Debug, Default)]
 pub struct OdometryChains {
-    chains: BTreeMap<RobotId, BTreeMap<u32, Link>>,
+    chains: BTreeMap<RobotId, Chain>,
 }
 
 impl OdometryChains {
@@ -55,8 +82,8 @@ impl OdometryChains {
     }
 
     /// Records keyframe `id` at `world_from_sensor` before the step into it is known (a peer's message
-    /// that carried the step was lost): the step counts as certain, `step_covariance` of 1 µ per axis,
-    /// until [`OdometryChains::insert`] gives the real one.
+    /// that carried the step was lost): the step counts as the widest step of the robot's chain until
+    /// [`OdometryChains::insert`] gives the real one.
     pub fn insert_without_step(&mut self, id: KeyframeId, world_from_sensor: Pose) {
         self.insert_link(id, world_from_sensor, Information::identity() * 1e-6, false);
     }
@@ -65,7 +92,7 @@ impl OdometryChains {
     pub fn has_step(&self, id: KeyframeId) -> bool {
         self.chains
             .get(&id.robot)
-            .and_then(|chain| chain.get(&id.index))
+            .and_then(|chain| chain.links.get(&id.index))
             .is_some_and(|link| link.step_known)
     }
 
@@ -77,39 +104,59 @@ impl OdometryChains {
         step_known: bool,
     ) {
         let chain = self.chains.entry(id.robot).or_default();
-        let appended = chain.last_key_value().is_none_or(|(&last, _)| id.index > last);
-        chain.insert(
+        let appended = chain
+            .links
+            .last_key_value()
+            .is_none_or(|(&last, _)| id.index > last);
+        if step_known
+            && chain
+                .widest_step
+                .is_none_or(|widest| step_covariance.trace() > widest.trace())
+        {
+            chain.widest_step = Some(step_covariance);
+        }
+        chain.links.insert(
             id.index,
             Link {
                 world_from_sensor,
                 step_covariance,
                 step_known,
-                run_start: id.index,
                 prefix_covariance: Matrix6::zeros(),
             },
         );
-        // Recompute the prefixes from this keyframe to the end of its run (only this one when appended).
-        let mut index = id.index;
-        loop {
-            let previous = index.checked_sub(1).and_then(|p| chain.get(&p)).copied();
-            let Some(link) = chain.get_mut(&index) else { break };
-            match previous {
-                Some(previous) => {
-                    let ad = adjoint(&previous.world_from_sensor);
-                    link.run_start = previous.run_start;
-                    link.prefix_covariance =
-                        previous.prefix_covariance + ad * link.step_covariance * ad.transpose();
+        // Recompute the prefixes from this keyframe to the end of the chain (only this one when appended).
+        let indices: Vec<u32> = match appended {
+            true => vec![id.index],
+            false => chain.links.range(id.index..).map(|(&index, _)| index).collect(),
+        };
+        for index in indices {
+            let previous = chain
+                .links
+                .range(..index)
+                .next_back()
+                .map(|(&previous_index, link)| (previous_index, *link));
+            let Some(link) = chain.links.get(&index).copied() else {
+                continue;
+            };
+            let prefix_covariance = match previous {
+                Some((previous_index, previous)) => {
+                    let (step, own) = chain.step_from(previous_index, index, &link);
+                    // A step's own covariance is in the frame it starts from; the stand-in for missing
+                    // steps is put at the gap's far end, where each rotation error it stands for has
+                    // the longest lever, so that it is not narrower than the steps it replaces.
+                    let frame = if own {
+                        previous.world_from_sensor
+                    } else {
+                        link.world_from_sensor
+                    };
+                    let ad = adjoint(&frame);
+                    previous.prefix_covariance + ad * step * ad.transpose()
                 }
-                None => {
-                    link.run_start = index;
-                    link.prefix_covariance = Matrix6::zeros();
-                }
+                None => Matrix6::zeros(),
+            };
+            if let Some(link) = chain.links.get_mut(&index) {
+                link.prefix_covariance = prefix_covariance;
             }
-            if appended {
-                break;
-            }
-            let Some(next) = index.checked_add(1) else { break };
-            index = next;
         }
     }
 
@@ -117,6 +164,7 @@ impl OdometryChains {
     pub fn pose(&self, id: KeyframeId) -> Option<Pose> {
         self.chains
             .get(&id.robot)?
+            .links
             .get(&id.index)
             .map(|link| link.world_from_sensor)
     }
@@ -125,14 +173,14 @@ impl OdometryChains {
     pub fn contains(&self, id: KeyframeId) -> bool {
         self.chains
             .get(&id.robot)
-            .is_some_and(|chain| chain.contains_key(&id.index))
+            .is_some_and(|chain| chain.links.contains_key(&id.index))
     }
 
     /// Every keyframe of every robot, ordered by robot then index.
     pub fn keyframes(&self) -> Vec<KeyframeId> {
         self.chains
             .iter()
-            .flat_map(|(&robot, chain)| chain.keys().map(move |&index| KeyframeId { robot, index }))
+            .flat_map(|(&robot, chain)| chain.links.keys().map(move |&index| KeyframeId { robot, index }))
             .collect()
     }
 
@@ -142,6 +190,7 @@ impl OdometryChains {
             .get(&robot)
             .map(|chain| {
                 chain
+                    .links
                     .iter()
                     .map(|(&index, link)| (index, link.world_from_sensor))
                     .collect()
@@ -153,13 +202,14 @@ impl OdometryChains {
     pub fn step_covariance(&self, id: KeyframeId) -> Option<Information> {
         self.chains
             .get(&id.robot)?
+            .links
             .get(&id.index)
             .map(|link| link.step_covariance)
     }
 
     /// The relative odometry `target_from_source` between two keyframes of one robot and its covariance,
-    /// propagated to first order along every step in between. `None` for different robots, unknown
-    /// keyframes or a gap in the chain.
+    /// propagated to first order along every step in between (a gap's steps as the module doc says).
+    /// `None` for different robots or unknown keyframes.
     pub fn between(&self, target: KeyframeId, source: KeyframeId) -> Option<RelativePose> {
         if target.robot != source.robot {
             return None;
@@ -170,10 +220,7 @@ impl OdometryChains {
         } else {
             (source.index, target.index)
         };
-        let (low_link, high_link) = (chain.get(&low)?, chain.get(&high)?);
-        if low_link.run_start != high_link.run_start {
-            return None;
-        }
+        let (low_link, high_link) = (chain.links.get(&low)?, chain.links.get(&high)?);
         let ad = adjoint(&low_link.world_from_sensor.inverse());
         let mut covariance = ad * (high_link.prefix_covariance - low_link.prefix_covariance) * ad.transpose();
         covariance = (covariance + covariance.transpose()) * 0.5;
@@ -301,17 +348,25 @@ mod tests {
             chains.insert(KeyframeId::new(1, k as u32), *pose, *covariance);
         }
         check(&chains);
-        // Out of order, with a gap that is filled last: no answer across the gap until then.
+        // Out of order, with a gap that is filled last: across the gap the pose is exact and the
+        // missing steps count as the widest one, so the covariance is wider than the true one; once the
+        // gap is filled, exact again.
         let mut chains = OdometryChains::default();
-        for k in (0..60).rev().filter(|k| *k != 25) {
+        for k in (0..60).rev().filter(|k| !(24..=26).contains(k)) {
             chains.insert(KeyframeId::new(1, k as u32), truth[k].0, truth[k].1);
         }
+        let (low, high) = (KeyframeId::new(1, 20), KeyframeId::new(1, 30));
+        let across = chains.between(low, high).expect("an answer across the gap");
+        let exact = truth[20].0.inverse() * truth[30].0;
+        assert!((across.target_from_source.translation.vector - exact.translation.vector).norm() < 1e-9);
+        let true_covariance = propagated(&truth, 20, 30);
         assert!(
-            chains
-                .between(KeyframeId::new(1, 20), KeyframeId::new(1, 30))
-                .is_none()
+            across.covariance.trace() > true_covariance.trace(),
+            "the gap's stand-in steps are no narrower than the true ones"
         );
-        chains.insert(KeyframeId::new(1, 25), truth[25].0, truth[25].1);
+        for (k, (pose, covariance)) in truth.iter().enumerate().take(27).skip(24) {
+            chains.insert(KeyframeId::new(1, k as u32), *pose, *covariance);
+        }
         check(&chains);
     }
 

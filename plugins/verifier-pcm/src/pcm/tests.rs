@@ -677,3 +677,30 @@ fn the_cycle_allows_for_the_drift_of_the_route_from_where_the_robots_are_tied() 
     };
     assert!(decided(rigid, 0).is_empty());
 }
+
+#[test]
+fn true_loops_on_both_sides_of_a_lost_stretch_of_a_peers_chain_are_consistent() {
+    // Robot 0 knows robot 1's chain from its messages, and those of keyframes 12–20 were lost.
+    let mut chains = skid_geometry::OdometryChains::default();
+    let step_covariance = Information::identity() * 1e-5;
+    for robot in 0..2 {
+        for index in 0..40 {
+            if robot == 1 && (12..=20).contains(&index) {
+                continue;
+            }
+            let id = KeyframeId::new(robot, index);
+            chains.insert(id, truth(id), step_covariance);
+        }
+    }
+    let k = KeyframeId::new;
+    let mut pcm = Pcm::new(PcmParams {
+        min_loops_before_decision: 2,
+        ..PcmParams::default()
+    })
+    .unwrap();
+    for (id, index) in [(1, 5), (2, 30)] {
+        pcm.add(pcm_loop(id, k(0, index), k(1, index), Pose::identity()), &chains)
+            .unwrap();
+    }
+    assert_eq!(pcm.accepted(), vec![LoopId(1), LoopId(2)]);
+}
