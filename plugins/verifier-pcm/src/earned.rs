@@ -143,45 +143,54 @@ fn offsets_through_others(
     if through.is_empty() {
         return Vec::new();
     }
-    // Each member as (a_first_from_b_first by the loop, b_first_from_source): where the loop puts b,
-    // each robot's keyframes placed along the graph's estimate, as the frames through others were: the
-    // odometry alone drifts from it by as much as the robots travelled without a loop.
+    // Where each member's loop puts b, each robot's keyframes placed along the graph's estimate, as the
+    // frames through others were: the odometry alone drifts from it by as much as the robots travelled
+    // without a loop.
     let placed = placements(loops, members, graph, Along::Estimate);
     if placed.is_empty() {
         return Vec::new();
     }
-    let drift_allowed_m: Vec<f64> = if rule.cycle_drift_fraction > 0.0 {
-        let ties = Ties::of(graph, &[a, b]);
-        members
-            .iter()
-            .map(|&k| {
-                let route_m = |id| ties.distance_m(id).unwrap_or(0.0);
-                rule.cycle_drift_fraction * (route_m(loops[k].target) + route_m(loops[k].source))
-            })
-            .collect()
-    } else {
-        vec![0.0; members.len()]
-    };
-    through
+    let mut by_via: Vec<(RobotId, Vec<Offset>)> = through
         .into_iter()
         .map(|(via, through)| {
             let offsets = placed
                 .iter()
-                .zip(&drift_allowed_m)
-                .map(|((frame, b_first_from_source), &drift_allowed_m)| {
-                    let by_loop = frame * b_first_from_source;
-                    let by_cycle = through * b_first_from_source;
+                .map(|placed| {
+                    let by_loop = placed.a_first_from_b_first * placed.b_first_from_source;
+                    let by_cycle = through * placed.b_first_from_source;
                     let change = by_loop.inverse() * by_cycle;
                     Offset {
                         off_m: change.translation.vector.norm(),
                         off_rad: change.rotation.angle(),
-                        drift_allowed_m,
+                        drift_allowed_m: 0.0,
                     }
                 })
                 .collect();
             (via, offsets)
         })
-        .collect()
+        .collect();
+    // The drift allowance matters only past the fixed tolerance: the routes are measured only then.
+    let past_tolerance = by_via
+        .iter()
+        .flat_map(|(_, offsets)| offsets)
+        .any(|offset| offset.off_m > rule.cycle_tolerance_m);
+    if rule.cycle_drift_fraction > 0.0 && past_tolerance {
+        let ties = Ties::of(graph, &[a, b]);
+        let route_m = |id| ties.distance_m(id).unwrap_or(0.0);
+        let drift_allowed_m: Vec<f64> = placed
+            .iter()
+            .map(|placed| {
+                let member = &loops[placed.member];
+                rule.cycle_drift_fraction * (route_m(member.target) + route_m(member.source))
+            })
+            .collect();
+        for (_, offsets) in &mut by_via {
+            for (offset, &allowed_m) in offsets.iter_mut().zip(&drift_allowed_m) {
+                offset.drift_allowed_m = allowed_m;
+            }
+        }
+    }
+    by_via
 }
 
 /// How far a frame through a third robot puts robot b from where one loop puts it.

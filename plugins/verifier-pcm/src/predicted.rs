@@ -55,15 +55,23 @@ pub(crate) enum Along {
     Estimate,
 }
 
-/// Where each member puts robot `b`: `(a_first_from_b_first, b_first_from_source)` per member whose
-/// keyframes the graph reaches, each robot's keyframes placed against its first one `along` the
-/// odometry or the estimate.
+/// Where one member puts robot `b`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Placement {
+    /// The member's index into the loops.
+    pub member: usize,
+    pub a_first_from_b_first: Pose,
+    pub b_first_from_source: Pose,
+}
+
+/// Where each member whose keyframes the graph reaches puts robot `b`, each robot's keyframes placed
+/// against its first one `along` the odometry or the estimate.
 pub(crate) fn placements(
     loops: &[PcmLoop],
     members: &[usize],
     graph: &dyn GraphView,
     along: Along,
-) -> Vec<(Pose, Pose)> {
+) -> Vec<Placement> {
     let first_from = |id: KeyframeId| -> Option<Pose> {
         let first = start(id.robot);
         let estimated = match along {
@@ -81,8 +89,13 @@ pub(crate) fn placements(
             let member = &loops[k];
             let a_first_from_target = first_from(member.target)?;
             let b_first_from_source = first_from(member.source)?;
-            let frame = a_first_from_target * member.target_from_source * b_first_from_source.inverse();
-            Some((frame, b_first_from_source))
+            Some(Placement {
+                member: k,
+                a_first_from_b_first: a_first_from_target
+                    * member.target_from_source
+                    * b_first_from_source.inverse(),
+                b_first_from_source,
+            })
         })
         .collect()
 }
@@ -147,7 +160,7 @@ pub(crate) fn predicted_overlaps(
     let (a, b) = (first.target.robot, first.source.robot);
     let frames: Vec<Pose> = placements(loops, members, graph, Along::Odometry)
         .into_iter()
-        .map(|(frame, _)| frame)
+        .map(|placed| placed.a_first_from_b_first)
         .collect();
     let Some(frame) = medoid(&frames) else {
         return predicted;

@@ -97,58 +97,40 @@ impl Ties {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use skid_core::slots::{LoopClosure, RelativePose};
+    use skid_core::slots::LoopClosure;
     use skid_core::{Information, LoopId, Pose};
+    use skid_testkit::backend::ChainGraph;
 
-    /// Two straight routes along x, 10 m between keyframes, and the loops given.
-    struct Straight {
-        loops: Vec<LoopClosure>,
-    }
-
-    fn kf(robot: u32, index: u32) -> KeyframeId {
-        KeyframeId {
-            robot: RobotId(robot),
-            index,
+    /// Two straight routes along x, 10 m between keyframes 0–19, and the loops given.
+    fn straight(loops: &[(KeyframeId, KeyframeId)]) -> ChainGraph {
+        let mut graph = ChainGraph::default();
+        for robot in 0..2 {
+            for index in 0..20 {
+                let pose = Pose::translation(10.0 * f64::from(index), f64::from(robot), 0.0);
+                graph.push(KeyframeId::new(robot, index), pose, Information::identity());
+            }
         }
-    }
-
-    impl GraphView for Straight {
-        fn pose(&self, id: KeyframeId) -> Option<Pose> {
-            (id.index < 20).then(|| Pose::translation(10.0 * f64::from(id.index), f64::from(id.robot.0), 0.0))
+        for &(target, source) in loops {
+            graph.add_loop(LoopClosure {
+                id: LoopId(0),
+                target,
+                source,
+                target_from_source: Pose::identity(),
+                information: Information::identity(),
+            });
         }
-        fn odometry_between(&self, _: KeyframeId, _: KeyframeId) -> Option<RelativePose> {
-            None
-        }
-        fn keyframes(&self) -> Vec<KeyframeId> {
-            (0..2)
-                .flat_map(|robot| (0..20).map(move |index| kf(robot, index)))
-                .collect()
-        }
-        fn loops(&self) -> Vec<LoopClosure> {
-            self.loops.clone()
-        }
-    }
-
-    fn closure(target: KeyframeId, source: KeyframeId) -> LoopClosure {
-        LoopClosure {
-            id: LoopId(0),
-            target,
-            source,
-            target_from_source: Pose::identity(),
-            information: Information::identity(),
-        }
+        graph
     }
 
     #[test]
     fn the_distance_is_along_the_route_to_the_nearest_inter_robot_tie() {
-        let graph = Straight {
-            loops: vec![
-                closure(kf(0, 3), kf(1, 15)),
-                closure(kf(0, 12), kf(1, 2)),
-                // An intra-robot loop ties nothing.
-                closure(kf(0, 18), kf(0, 1)),
-            ],
-        };
+        let kf = KeyframeId::new;
+        let graph = straight(&[
+            (kf(0, 3), kf(1, 15)),
+            (kf(0, 12), kf(1, 2)),
+            // An intra-robot loop ties nothing.
+            (kf(0, 18), kf(0, 1)),
+        ]);
         let ties = Ties::of(&graph, &[RobotId(0), RobotId(1)]);
         let near = |distance: Option<f64>, expected: f64| {
             assert!(
@@ -162,7 +144,7 @@ mod tests {
         near(ties.distance_m(kf(0, 19)), 70.0);
         near(ties.distance_m(kf(1, 9)), 60.0);
         assert_eq!(ties.distance_m(kf(0, 25)), None, "no estimate");
-        let untied = Straight { loops: Vec::new() };
+        let untied = straight(&[]);
         assert_eq!(Ties::of(&untied, &[RobotId(0)]).distance_m(kf(0, 3)), None);
         assert_eq!(ties.distance_m(kf(2, 3)), None, "a robot not asked about");
     }
