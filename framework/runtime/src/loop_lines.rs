@@ -5,7 +5,7 @@
 use skid_core::{KeyframeId, Pose};
 use skid_eval::plot::LoopClass;
 
-use crate::host::{LoopStanding, RobotHost};
+use crate::host::{LoopStanding, RejectionKind, RobotHost};
 
 /// The loop classes drawn: the record's marker namespace and colour (RGBA), and the plots' class.
 pub const LOOP_CLASSES: [(&str, [f32; 4], LoopClass); 4] = [
@@ -28,9 +28,13 @@ fn loop_class(standing: LoopStanding, rejection_reason: Option<&str>) -> usize {
     match standing {
         LoopStanding::Accepted => 0,
         LoopStanding::Undecided => 3,
-        // The PCM verifier names its alignment check's refusals `truncated MSE: …`; every other
-        // refusal (consistency, retraction) is a judgement on the loop against the others.
-        LoopStanding::Rejected if rejection_reason.is_some_and(|r| r.starts_with("truncated MSE")) => 1,
+        // The PCM verifier names its checks of a loop's own clouds `truncated MSE: …` and `free space: …`;
+        // every other refusal (consistency, retraction) is a judgement on the loop against the others.
+        LoopStanding::Rejected
+            if rejection_reason.is_some_and(|r| RejectionKind::of(r).is_alignment_check()) =>
+        {
+            1
+        }
         LoopStanding::Rejected => 2,
     }
 }

@@ -1,7 +1,8 @@
 //! SKiD loop verification: the two-stage outlier rejection of SKiD-SLAM (Kim et al., §IV-D): a
-//! truncated-MSE fitness check of each loop's clouds ([`fitness`]), then pairwise consistency
-//! maximisation (PCM; Mangelson et al., ICRA 2018) over the loops of each robot pair ([`pcm`],
-//! [`consistency`], [`clique`], [`dense`]).
+//! truncated-MSE fitness check of each loop's clouds ([`fitness`]) and a check that the two clouds do
+//! not see through each other ([`free_space`]), then pairwise consistency maximisation (PCM; Mangelson
+//! et al., ICRA 2018) over the loops of each robot pair ([`pcm`], [`consistency`], [`clique`],
+//! [`dense`]).
 //!
 //! Plugins (verifier slot):
 //! - `pcm`: both stages; loops of a robot pair are accepted as the consistent core of their
@@ -12,7 +13,7 @@
 //!   strongest rival hypothesis ([`earned`]), and while the other keyframe pairs its frame puts in one
 //!   place look alike too ([`predicted`]); a granted set that stops dominating or whose predictions fail
 //!   is retracted.
-//! - `gnc`: the fitness stage only, accepting the rest; pair it with `[backend.pgo] robust = "gnc"` so
+//! - `gnc`: the cloud checks only (truncated MSE, free space), accepting the rest; pair it with `[backend.pgo] robust = "gnc"` so
 //!   graduated non-convexity with a truncated-least-squares loss rejects outliers in the back-end.
 //!
 //! `plugin = "none"` (no verifier) is the runtime's business, for ablation.
@@ -22,6 +23,7 @@ pub mod consistency;
 pub mod dense;
 mod earned;
 pub mod fitness;
+pub mod free_space;
 pub mod lie;
 pub mod pcm;
 mod predicted;
@@ -40,7 +42,7 @@ pub use verifier::{GncConfig, GncVerifier, PcmConfig, PcmVerifier};
 pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     let pcm = PluginEntry::new(
         "pcm",
-        "Truncated-MSE fitness, then pairwise consistency maximisation (exact incremental max clique)",
+        "Truncated-MSE fitness and free-space checks, then pairwise consistency maximisation",
         |config: PcmConfig, _context: &PluginContext| {
             Ok(Box::new(PcmVerifier::from_checked(config)) as Box<dyn Verifier>)
         },
@@ -48,7 +50,7 @@ pub fn register(registry: &mut Registry) -> Result<(), PluginError> {
     registry.verifier.register(pcm)?;
     let gnc = PluginEntry::new(
         "gnc",
-        "Truncated-MSE fitness only; outliers left to GNC-TLS in the back-end (robust = \"gnc\")",
+        "Truncated-MSE fitness and free-space checks only; outliers left to GNC-TLS in the back-end (robust = \"gnc\")",
         |config: GncConfig, _context: &PluginContext| {
             Ok(Box::new(GncVerifier::from_checked(config)?) as Box<dyn Verifier>)
         },

@@ -1,5 +1,6 @@
-//! The verifier plugins: `pcm` (SKiD-SLAM's two stages, truncated MSE then PCM) and `gnc` (truncated
-//! MSE only; the outliers are left to graduated non-convexity in the back-end, for ablation).
+//! The verifier plugins: `pcm` (SKiD-SLAM's two stages, the cloud checks — truncated MSE, free space —
+//! then PCM) and `gnc` (the cloud checks only; the outliers are left to graduated non-convexity in the
+//! back-end, for ablation).
 
 use serde::{Deserialize, Serialize};
 use skid_core::slots::{GraphView, LoopCandidate, Verdict, Verifier};
@@ -7,13 +8,16 @@ use skid_core::{PluginError, PluginResult};
 
 use crate::consistency::PcmLoop;
 use crate::fitness::FitnessConfig;
+use crate::free_space::FreeSpaceConfig;
 use crate::pcm::{Pcm, PcmParams};
 
-/// Parameters of the `pcm` verifier: `[verifier.pcm]` with the fitness check in `[verifier.pcm.fitness]`.
+/// Parameters of the `pcm` verifier: `[verifier.pcm]` with the fitness check in `[verifier.pcm.fitness]`,
+/// the free-space check in `[verifier.pcm.free_space]` and PCM in `[verifier.pcm.consistency]`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PcmConfig {
     pub fitness: FitnessConfig,
+    pub free_space: FreeSpaceConfig,
     pub consistency: PcmParams,
 }
 
@@ -22,6 +26,7 @@ pub struct PcmConfig {
 #[serde(default, deny_unknown_fields)]
 pub struct GncConfig {
     pub fitness: FitnessConfig,
+    pub free_space: FreeSpaceConfig,
 }
 
 /// Runs the fitness check on a candidate: `Some(reason)` when it fails. A candidate without clouds (a
@@ -41,6 +46,32 @@ fn fitness_rejection(config: &FitnessConfig, candidate: &LoopCandidate<'_>) -> O
     }
 }
 
+/// Runs the free-space check on a candidate: `Some(reason)` when its clouds see through each other. A
+/// candidate without both clouds is judged on its pose alone.
+fn free_space_rejection(config: &FreeSpaceConfig, candidate: &LoopCandidate<'_>) -> Option<String> {
+    if !config.enabled || candidate.target_cloud.is_empty() || candidate.source_cloud.is_empty() {
+        return None;
+    }
+    let closure = &candidate.closure;
+    let count = config.count(
+        candidate.target_cloud.points(),
+        candidate.source_cloud.points(),
+        &closure.target_from_source,
+    );
+    tracing::debug!(
+        target_keyframe = %closure.target,
+        source_keyframe = %closure.source,
+        violating = count.violating,
+        clustered = count.clustered,
+        agreeing = count.agreeing,
+        undecided = count.undecided,
+        translation_m = ?closure.target_from_source.translation.vector.as_slice(),
+        rotation_xyzw = ?closure.target_from_source.rotation.coords.as_slice(),
+        "free space counted"
+    );
+    config.judge(&count)
+}
+
 /// Checks that both keyframes of a loop are in the graph.
 fn unknown_keyframe(candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> Option<String> {
     let closure = &candidate.closure;
@@ -53,6 +84,7 @@ fn unknown_keyframe(candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> Opt
 /// The `pcm` verifier.
 pub struct PcmVerifier {
     fitness: FitnessConfig,
+    free_space: FreeSpaceConfig,
     pcm: Pcm,
 }
 
@@ -68,6 +100,7 @@ impl PcmVerifier {
     pub(crate) fn from_checked(config: PcmConfig) -> Self {
         Self {
             fitness: config.fitness,
+            free_space: config.free_space,
             pcm: Pcm::from_checked(config.consistency),
         }
     }
@@ -94,7 +127,9 @@ impl Verifier for PcmVerifier {
             Ok(pcm_loop) => pcm_loop,
             Err(reason) => return reject(reason),
         };
-        if let Some(reason) = fitness_rejection(&self.fitness, candidate) {
+        if let Some(reason) = fitness_rejection(&self.fitness, candidate)
+            .or_else(|| free_space_rejection(&self.free_space, candidate))
+        {
             return reject(reason);
         }
         let update = self.pcm.add(pcm_loop, graph).map_err(PluginError::InvalidInput)?;
@@ -140,6 +175,7 @@ impl Verifier for PcmVerifier {
 /// The `gnc` verifier: accepts every loop that passes the fitness check.
 pub struct GncVerifier {
     fitness: FitnessConfig,
+    free_space: FreeSpaceConfig,
 }
 
 impl GncVerifier {
@@ -152,6 +188,7 @@ impl GncVerifier {
     pub(crate) fn from_checked(config: GncConfig) -> PluginResult<Self> {
         Ok(Self {
             fitness: config.fitness,
+            free_space: config.free_space,
         })
     }
 }
@@ -161,7 +198,8 @@ impl Verifier for GncVerifier {
         let id = candidate.closure.id;
         let reason = unknown_keyframe(candidate, graph)
             .or_else(|| PcmLoop::from_closure(&candidate.closure).err())
-            .or_else(|| fitness_rejection(&self.fitness, candidate));
+            .or_else(|| fitness_rejection(&self.fitness, candidate))
+            .or_else(|| free_space_rejection(&self.free_space, candidate));
         Ok(match reason {
             Some(reason) => Verdict {
                 rejected: vec![(id, reason)],
@@ -180,6 +218,9 @@ impl skid_core::PluginParams for PcmConfig {
         self.fitness
             .validate()
             .map_err(|error| error.in_table("fitness"))?;
+        self.free_space
+            .validate()
+            .map_err(|error| error.in_table("free_space"))?;
         self.consistency
             .validate()
             .map_err(|error| error.in_table("consistency"))
@@ -188,6 +229,11 @@ impl skid_core::PluginParams for PcmConfig {
 
 impl skid_core::PluginParams for GncConfig {
     fn check(&self) -> Result<(), skid_core::ParamError> {
-        self.fitness.validate().map_err(|error| error.in_table("fitness"))
+        self.fitness
+            .validate()
+            .map_err(|error| error.in_table("fitness"))?;
+        self.free_space
+            .validate()
+            .map_err(|error| error.in_table("free_space"))
     }
 }

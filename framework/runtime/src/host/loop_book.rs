@@ -37,8 +37,11 @@ pub struct LoopStats {
     /// In this robot's graph, found by this robot.
     pub accepted_intra: usize,
     pub accepted_inter: usize,
-    /// Refused by the verifier (truncated MSE or consistency), or accepted and later retracted.
+    /// Refused by the verifier (truncated MSE, free space or consistency), or accepted and later
+    /// retracted.
     pub rejected: usize,
+    /// `rejected` by the verifier's reason ([`RejectionKind`]), as the loops stand now.
+    pub rejected_by: BTreeMap<&'static str, usize>,
     /// Submitted to the verifier, which has not decided yet (PCM waits for enough loops of a pair).
     pub undecided: usize,
     /// Events: inter-robot candidates the budget admitted to registration, coarse alignments judged
@@ -79,6 +82,51 @@ impl LoopStats {
 
     pub fn candidates(&self) -> usize {
         self.candidates_intra + self.candidates_inter
+    }
+}
+
+/// Why the verifier refused a loop, read from the reason it gave.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RejectionKind {
+    /// The clouds overlap badly where they overlap (`truncated MSE: …`).
+    TruncatedMse,
+    /// The clouds see through each other (`free space: …`): two look-alike places, or a wrong alignment.
+    FreeSpace,
+    /// Not consistent with the other loops of its robot pair (`PCM: …`), or withheld with a set that
+    /// was not granted.
+    Consistency,
+    /// Accepted once, then taken back.
+    Retracted,
+    /// Anything else (a keyframe unknown to the graph, an unusable covariance, another verifier's own
+    /// reasons).
+    Other,
+}
+
+impl RejectionKind {
+    pub fn of(reason: &str) -> Self {
+        match reason {
+            r if r.starts_with("truncated MSE") => Self::TruncatedMse,
+            r if r.starts_with("free space") => Self::FreeSpace,
+            r if r.starts_with("PCM") => Self::Consistency,
+            r if r.starts_with("retracted") => Self::Retracted,
+            _ => Self::Other,
+        }
+    }
+
+    /// The key of `LoopStats::rejected_by`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Self::TruncatedMse => "truncated_mse",
+            Self::FreeSpace => "free_space",
+            Self::Consistency => "consistency",
+            Self::Retracted => "retracted",
+            Self::Other => "other",
+        }
+    }
+
+    /// A check of the loop's own clouds (its alignment), not a judgement against the other loops.
+    pub fn is_alignment_check(self) -> bool {
+        matches!(self, Self::TruncatedMse | Self::FreeSpace)
     }
 }
 
@@ -292,11 +340,18 @@ impl LoopBook {
     /// the budget's figures (queued, expired, admitted) and the candidates still waiting for a cloud.
     pub(crate) fn stats(&self, budget: BudgetFigures) -> LoopStats {
         let mut stats = self.counters.clone();
-        for (inter, standing) in self.standing.values() {
+        for (id, (inter, standing)) in &self.standing {
             match (standing, inter) {
                 (LoopStanding::Accepted, true) => stats.accepted_inter += 1,
                 (LoopStanding::Accepted, false) => stats.accepted_intra += 1,
-                (LoopStanding::Rejected, _) => stats.rejected += 1,
+                (LoopStanding::Rejected, _) => {
+                    stats.rejected += 1;
+                    let kind = self
+                        .rejection_reasons
+                        .get(id)
+                        .map_or(RejectionKind::Other, |reason| RejectionKind::of(reason));
+                    *stats.rejected_by.entry(kind.key()).or_default() += 1;
+                }
                 (LoopStanding::Undecided, _) => stats.undecided += 1,
             }
         }
