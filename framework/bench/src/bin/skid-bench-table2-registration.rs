@@ -32,6 +32,7 @@ fn main_table(rows: &[Row]) -> String {
         "rre_deg",
         "success_rate_percent",
         "unambiguous_success_percent",
+        "free_space_success_percent",
         "median_inliers",
         "mean_time_ms",
     ];
@@ -47,6 +48,7 @@ fn main_table(rows: &[Row]) -> String {
         "RRE [°] ↓",
         "Success rate [%] ↑",
         "Success, ambiguous refused [%] ↑",
+        "Success, free space checked [%] ↑",
         "Median inliers",
         "Time [ms]",
     ]

@@ -54,6 +54,9 @@ pub struct Row {
     /// [`REPORTED_RIVAL_RATIO`] of its inliers counts as a refusal, as the runtime counts it with
     /// `loops.ambiguous_rival_ratio` set to that.
     pub unambiguous_success_percent: Option<f64>,
+    /// The success rate when a result the verifier's free-space check refuses (at its defaults, on the
+    /// pair's clouds at the keyframes' 0.25 m voxels) counts as a failure.
+    pub free_space_success_percent: Option<f64>,
     pub rte_cm: Option<f64>,
     pub rre_deg: Option<f64>,
     pub mean_time_ms: f64,
@@ -284,6 +287,7 @@ pub fn summary(
         pairs: stats.pairs,
         success_rate_percent: 100.0 * stats.success_rate,
         unambiguous_success_percent: None,
+        free_space_success_percent: None,
         rte_cm: stats.rte_cm,
         rre_deg: stats.rre_deg,
         mean_time_ms: times_ms.iter().sum::<f64>() / times_ms.len().max(1) as f64,

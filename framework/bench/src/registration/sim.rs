@@ -11,12 +11,17 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use skid_core::Pose;
 use skid_eval::registration::RegistrationPair;
+use skid_geometry::voxel_downsample;
 use skid_sim::WorldKind;
+use skid_verifier_pcm::free_space::FreeSpaceConfig;
 
 use super::pairs::{PairGeometry, PairKind, SimPair, sim_pairs, unit_hash};
 use super::reference::{REFERENCE_NAME, reference_kiss_matcher};
 use super::{METHOD_NAMES, Methods, check_methods, percent, pose_errors, summary};
 use crate::Report;
+
+/// The voxel edge keyframe clouds are kept at (what the verifier's checks see), metres.
+const KEYFRAME_VOXEL_M: f32 = 0.25;
 
 /// Parameters of the simulated table.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -84,6 +89,8 @@ pub struct PairResult {
     pub rival_inliers: Option<usize>,
     /// A coarse result the runtime would refuse as ambiguous (its rival alignment nearly as strong).
     pub ambiguous: bool,
+    /// A result the verifier's free-space check refuses: the clouds it aligns see through each other.
+    pub free_space_refused: bool,
     pub time_ms: f64,
     pub cpu_ms: Option<f64>,
     #[serde(skip)]
@@ -119,6 +126,7 @@ fn result_for(world: WorldKind, pair: &SimPair, method: &str) -> PairResult {
         inliers: None,
         rival_inliers: None,
         ambiguous: false,
+        free_space_refused: false,
         time_ms: 0.0,
         cpu_ms: None,
         estimate: None,
@@ -141,8 +149,20 @@ fn world_results(
         &settings.geometry,
     )?;
     let mut results = Vec::new();
+    let free_space = FreeSpaceConfig::default();
     for (index, pair) in pairs.iter().enumerate() {
         let prior = prior_for(settings, index, &pair.truth);
+        // The verifier sees the keyframe clouds, 0.25 m voxel centroids.
+        let (target_kept, source_kept) = (
+            voxel_downsample(&pair.target.points, KEYFRAME_VOXEL_M),
+            voxel_downsample(&pair.source.points, KEYFRAME_VOXEL_M),
+        );
+        let refused = |estimate: &Option<Pose>| {
+            estimate.as_ref().is_some_and(|estimate| {
+                let count = free_space.count(&target_kept, &source_kept, estimate);
+                free_space.judge(&count).is_some()
+            })
+        };
         for method in &settings.methods {
             let outcome = methods.run(method, &pair.target, &pair.source, &prior)?;
             let (translation, rotation, success) = pose_errors(&outcome.estimate, &pair.truth);
@@ -154,6 +174,7 @@ fn world_results(
                 inliers: outcome.inliers,
                 rival_inliers: outcome.rival_inliers,
                 ambiguous: outcome.ambiguous(),
+                free_space_refused: refused(&outcome.estimate),
                 time_ms: outcome.time_ms,
                 cpu_ms: outcome.cpu_ms,
                 estimate: outcome.estimate,
@@ -208,6 +229,13 @@ fn push_summary(
     if chosen.iter().any(|r| r.inliers.is_some()) && method != REFERENCE_NAME {
         let kept = chosen.iter().filter(|r| r.success && !r.ambiguous).count();
         summary.unambiguous_success_percent = Some(percent(kept, chosen.len()));
+    }
+    if method != REFERENCE_NAME {
+        let kept = chosen
+            .iter()
+            .filter(|r| r.success && !r.free_space_refused)
+            .count();
+        summary.free_space_success_percent = Some(percent(kept, chosen.len()));
     }
     let mut row = serde_json::to_value(summary)?;
     let mut inliers: Vec<usize> = chosen.iter().filter_map(|r| r.inliers).collect();

@@ -14,7 +14,9 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use skid_core::{Cloud, Pose};
 use skid_eval::plot::{PlotOptions, Series, line_plot};
+use skid_geometry::voxel_downsample;
 use skid_sim::WorldKind;
+use skid_verifier_pcm::free_space::FreeSpaceConfig;
 
 use super::pairs::{PairKind, RouteSampler};
 use super::{Methods, Row, check_methods, mean, percent, pose_errors};
@@ -83,6 +85,9 @@ pub struct SweepEntry {
     pub valid: bool,
     /// A coarse result the runtime would refuse as ambiguous (its rival alignment nearly as strong).
     pub ambiguous: bool,
+    /// A result the verifier's free-space check refuses (its defaults, the clouds at the keyframes'
+    /// 0.25 m voxels): the clouds it aligns see through each other.
+    pub free_space_refused: bool,
     /// Whether the method is a coarse one (reports inliers and a rival).
     pub coarse: bool,
     pub time_ms: f64,
@@ -110,8 +115,9 @@ pub struct SweepOutcome {
     pub markdown: String,
 }
 
-/// A pair of a sweep: target, source and the true `target_from_source`.
-type SweepPair = (Cloud, Cloud, Pose);
+/// A pair of a sweep: target, source, the true `target_from_source`, and where the target cloud was
+/// moved from its sensor's frame (`moved_from_sensor`; the identity when it was not).
+type SweepPair = (Cloud, Cloud, Pose, Pose);
 
 /// Runs every method on the pairs `pairs_at(yaw)` gives at every yaw, appending to `entries`.
 fn sweep_case(
@@ -122,10 +128,22 @@ fn sweep_case(
     pairs_at: &mut dyn FnMut(f64) -> Result<Vec<SweepPair>>,
     entries: &mut Vec<SweepEntry>,
 ) -> Result<()> {
+    let free_space = FreeSpaceConfig::default();
     for &yaw_deg in yaws {
-        for (variant, (target, source, truth)) in pairs_at(yaw_deg)?.iter().enumerate() {
+        for (variant, (target, source, truth, moved_from_sensor)) in pairs_at(yaw_deg)?.iter().enumerate() {
+            // The verifier sees the keyframe clouds (0.25 m voxel centroids) in their sensors' frames.
+            let sensor_target = target.view().transformed(&moved_from_sensor.inverse());
+            let (target_kept, source_kept) = (
+                voxel_downsample(&sensor_target.points, 0.25),
+                voxel_downsample(&source.points, 0.25),
+            );
             for method in &settings.methods {
                 let outcome = methods.run(method, target, source, &Pose::identity())?;
+                let free_space_refused = outcome.estimate.as_ref().is_some_and(|estimate| {
+                    let in_sensor_frame = moved_from_sensor.inverse() * estimate;
+                    let count = free_space.count(&target_kept, &source_kept, &in_sensor_frame);
+                    free_space.judge(&count).is_some()
+                });
                 let (translation_error_m, rotation_error_deg, success) =
                     pose_errors(&outcome.estimate, truth);
                 entries.push(SweepEntry {
@@ -138,6 +156,7 @@ fn sweep_case(
                     success,
                     valid: outcome.valid,
                     ambiguous: outcome.ambiguous(),
+                    free_space_refused,
                     coarse: outcome.inliers.is_some(),
                     time_ms: outcome.time_ms,
                     cpu_ms: outcome.cpu_ms,
@@ -168,6 +187,7 @@ fn real_pairs(settings: &SweepSettings, pair: &(Cloud, Cloud, Pose), yaw_deg: f6
                 target.view().transformed(&motion),
                 source.clone(),
                 motion * reference,
+                motion,
             )
         })
         .collect()
@@ -225,6 +245,10 @@ fn case_results(
                     mine.len(),
                 )
             }),
+            free_space_success_percent: Some(percent(
+                mine.iter().filter(|e| e.success && !e.free_space_refused).count(),
+                mine.len(),
+            )),
             rte_cm: mean(
                 &successes
                     .iter()
@@ -333,6 +357,7 @@ pub fn yaw_sweep(
                             target.clone(),
                             sampler.scan(source_pose, key),
                             pose.inverse() * source_pose,
+                            Pose::identity(),
                         ))
                     })
                     .collect())
