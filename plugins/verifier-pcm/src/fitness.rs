@@ -150,7 +150,8 @@ impl FitnessConfig {
         })
     }
 
-    /// `None` when `fitness` passes, else the reason it fails.
+    /// `None` when `fitness` passes, else the reason it fails (always beginning `truncated MSE`, which is
+    /// how the host tells this check's refusals from the others).
     pub fn judge(&self, fitness: &Fitness) -> Option<String> {
         if fitness.inliers < self.min_inliers {
             return Some(format!(
@@ -166,10 +167,42 @@ impl FitnessConfig {
         }
         if fitness.overlap < self.min_overlap {
             return Some(format!(
-                "overlap {:.3} < {:.3} (truncated MSE {:.4} m²)",
+                "truncated MSE: overlap {:.3} < {:.3} (truncated MSE {:.4} m²)",
                 fitness.overlap, self.min_overlap, fitness.truncated_mse_m2
             ));
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_refusal_names_the_check() {
+        let config = FitnessConfig::default();
+        let cases = [
+            (0.01, 0.9, 10),  // too few pairs
+            (0.40, 0.9, 500), // a poor fit
+            (0.01, 0.1, 500), // too little overlap
+        ];
+        for (truncated_mse_m2, overlap, inliers) in cases {
+            let fitness = Fitness {
+                truncated_mse_m2,
+                overlap,
+                inliers,
+                source_points: 1000,
+            };
+            let reason = config.judge(&fitness).expect("refused");
+            assert!(reason.starts_with("truncated MSE"), "{reason}");
+        }
+        let good = Fitness {
+            truncated_mse_m2: 0.01,
+            overlap: 0.9,
+            inliers: 500,
+            source_points: 1000,
+        };
+        assert_eq!(config.judge(&good), None);
     }
 }

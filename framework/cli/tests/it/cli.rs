@@ -206,6 +206,14 @@ fn run_writes_trajectories_and_a_summary() {
         .map(|key| count(key))
         .sum();
         assert_eq!(candidates, outcomes, "{loops}");
+        // Every refusal has one reason.
+        let by_reason: u64 = loops["rejected_by"]
+            .as_object()
+            .unwrap()
+            .values()
+            .map(|count| count.as_u64().unwrap())
+            .sum();
+        assert_eq!(by_reason, count("rejected"), "{loops}");
     }
     assert!(metrics["inter_robot_candidates"].as_u64().is_some(), "{metrics}");
     // Robot 1 is β: either its α/β alignment error or the reason it has none.

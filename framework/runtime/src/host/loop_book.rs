@@ -367,3 +367,48 @@ impl LoopBook {
         stats
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refusals_are_counted_by_the_reason_the_verifier_gave() {
+        let mut book = LoopBook::default();
+        let k = KeyframeId::new;
+        let reasons = [
+            "truncated MSE 0.4 m² > 0.25 m² (overlap 0.80)",
+            "free space: 3.10 % of the 5120 points both scans see stand where the other saw through (> 0.50 %)",
+            "PCM: not in the maximum consistent set (12 of 14 loops)",
+            "keyframe robot1/kf9 is not in the graph",
+        ];
+        for (index, reason) in reasons.iter().enumerate() {
+            let closure = book.new_loop(
+                (k(0, index as u32), k(1, 0)),
+                Pose::identity(),
+                Information::identity(),
+            );
+            book.submitted(closure.clone());
+            book.rejected(closure.id, (*reason).to_owned());
+        }
+        let accepted = book.new_loop((k(0, 9), k(1, 1)), Pose::identity(), Information::identity());
+        book.submitted(accepted.clone());
+        let taken = book.take_for_acceptance(accepted.id).unwrap();
+        book.accept(taken);
+        book.retract(accepted.id).unwrap();
+        let stats = book.stats(BudgetFigures::default());
+        assert_eq!(stats.rejected, 5);
+        let expected: BTreeMap<&str, usize> = [
+            ("truncated_mse", 1),
+            ("free_space", 1),
+            ("consistency", 1),
+            ("other", 1),
+            ("retracted", 1),
+        ]
+        .into_iter()
+        .collect();
+        assert_eq!(stats.rejected_by, expected);
+        assert!(RejectionKind::of(reasons[1]).is_alignment_check());
+        assert!(!RejectionKind::of(reasons[2]).is_alignment_check());
+    }
+}
