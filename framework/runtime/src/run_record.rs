@@ -13,7 +13,7 @@
 //! | `/robot<i>/path` | `nav_msgs/Path` | the optimised trajectory (the poses of `trajectory.tum`), once at the end |
 //! | `/robot<i>/ground_truth` | `nav_msgs/Path` | the ground truth in the simulator's or dataset's world frame, when known |
 //! | `/map` | `sensor_msgs/PointCloud2` | the merged map (`map.ply`), in `map` |
-//! | `/loops` | `visualization_msgs/MarkerArray` | loop closures as lines in `map`: accepted, rejected by the verifier's check of the alignment (the truncated MSE), rejected as inconsistent (PCM, GNC) or retracted, and undecided, each a namespace and a colour |
+//! | `/loops` | `visualization_msgs/MarkerArray` | loop closures as lines in `map`: accepted, rejected by the verifier's checks of the alignment (the truncated MSE, the free space), rejected as inconsistent (PCM, GNC) or retracted, and undecided, each a namespace and a colour |
 
 use std::path::{Path, PathBuf};
 
