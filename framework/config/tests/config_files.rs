@@ -349,6 +349,10 @@ fn out_of_range_values_are_refused_at_load_time_naming_the_key() {
             "verifier.pcm.fitness.min_overlap",
         ),
         (
+            "verifier.pcm.free_space.max_clustered_fraction=-0.1",
+            "verifier.pcm.free_space.max_clustered_fraction",
+        ),
+        (
             "verifier.pcm.consistency.consistency_probability=2",
             "verifier.pcm.consistency.consistency_probability",
         ),
