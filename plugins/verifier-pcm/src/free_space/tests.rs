@@ -108,7 +108,10 @@ fn a_look_alike_street_whose_cars_differ_is_refused() {
     let config = FreeSpaceConfig::default();
     // The facades and the ground align exactly: only the cars tell the streets apart.
     let count = config.count(&target, &source, &Pose::translation(3.0, 0.0, 0.0));
-    assert!(count.clustered_fraction() > 2.0 * config.max_clustered_fraction, "{count:?}");
+    assert!(
+        count.clustered_fraction() > 2.0 * config.max_clustered_fraction,
+        "{count:?}"
+    );
     let reason = config.judge(&count).expect("the look-alike street is refused");
     assert!(reason.starts_with("free space"), "{reason}");
 }
