@@ -221,22 +221,19 @@ impl OdometryChains {
             (source.index, target.index)
         };
         let (low_link, high_link) = (chain.links.get(&low)?, chain.links.get(&high)?);
-        let ad = adjoint(&low_link.world_from_sensor.inverse());
-        let mut covariance = ad * (high_link.prefix_covariance - low_link.prefix_covariance) * ad.transpose();
-        covariance = (covariance + covariance.transpose()) * 0.5;
         let (target_link, source_link) = match target.index <= source.index {
             true => (low_link, high_link),
             false => (high_link, low_link),
         };
-        let target_from_source = target_link.world_from_sensor.inverse() * source_link.world_from_sensor;
-        if target.index > source.index {
-            // The covariance was accumulated in the low (= source) frame; move it to the target frame.
-            let ad = adjoint(&target_from_source);
-            covariance = ad * covariance * ad.transpose();
-        }
+        let target_from_world = target_link.world_from_sensor.inverse();
+        let target_from_source = target_from_world * source_link.world_from_sensor;
+        // The steps between the two keyframes, accumulated in the world frame, moved to the target's
+        // frame: whichever end is the earlier one, `target_from_source` perturbed on the left there.
+        let ad = adjoint(&target_from_world);
+        let covariance = ad * (high_link.prefix_covariance - low_link.prefix_covariance) * ad.transpose();
         Some(RelativePose {
             target_from_source,
-            covariance,
+            covariance: (covariance + covariance.transpose()) * 0.5,
         })
     }
 }
@@ -288,7 +285,13 @@ mod tests {
             .unwrap();
         let identity = forward.target_from_source * backward.target_from_source;
         assert!(identity.translation.vector.norm() < 1e-12);
-        assert!(backward.covariance.iter().all(|v| v.is_finite()) && backward.covariance.trace() > 0.0);
+        // The inverse perturbed on the left: `Exp(δ) T` inverted is `Exp(-Ad(T⁻¹) δ) T⁻¹`.
+        let ad = adjoint(&backward.target_from_source);
+        let moved = ad * forward.covariance * ad.transpose();
+        assert!(
+            (backward.covariance - moved).norm() < 1e-12 * moved.norm(),
+            "{backward:?}"
+        );
         assert!(
             chains
                 .between(KeyframeId::new(2, 1), KeyframeId::new(3, 1))

@@ -17,10 +17,10 @@
 //! `δe ≈ −Ad(P⁻¹) ξ_a + Ad((CD)⁻¹) ξ_b + Ad(D⁻¹) ξ_c + ξ_d` (`C = z_b`, `D = odom(s_b → s_a)`).
 
 use nalgebra::Matrix6;
-use skid_core::slots::{GraphView, LoopClosure};
+use skid_core::slots::{GraphView, LoopClosure, RelativePose};
 use skid_core::{KeyframeId, LoopId, Pose, RobotId};
 
-use crate::lie::{adjoint, inverse_covariance, left_to_right, se3_log, transport};
+use crate::lie::{adjoint, inverse_covariance, se3_log, transport};
 
 /// A loop closure as PCM keeps it: oriented so that the target robot is not after the source robot,
 /// with the covariance of its measurement (right perturbation).
@@ -73,19 +73,48 @@ impl PcmLoop {
 /// The squared Mahalanobis norm of the cycle closed by `a` and `b` (same group), or `None` when the
 /// graph cannot provide the odometry between their keyframes.
 pub fn squared_mahalanobis(a: &PcmLoop, b: &PcmLoop, graph: &dyn GraphView) -> Option<f64> {
-    let odom_target = graph.odometry_between(a.target, b.target)?;
-    let odom_source = graph.odometry_between(b.source, a.source)?;
+    let odometry = CycleOdometry::between(a, b, graph)?;
+    cycle_squared_mahalanobis(a, b, &odometry)
+}
+
+/// The odometry a cycle of two loops runs along: from `a`'s target keyframe to `b`'s, and from `b`'s
+/// source keyframe to `a`'s.
+#[derive(Clone, Debug)]
+pub struct CycleOdometry {
+    pub targets: RelativePose,
+    pub sources: RelativePose,
+}
+
+impl CycleOdometry {
+    /// Asks the graph for the odometry of the cycle `a` and `b` close; `None` when it lacks either part.
+    pub fn between(a: &PcmLoop, b: &PcmLoop, graph: &dyn GraphView) -> Option<Self> {
+        Some(Self {
+            targets: graph.odometry_between(a.target, b.target)?,
+            sources: graph.odometry_between(b.source, a.source)?,
+        })
+    }
+}
+
+/// [`squared_mahalanobis`] on odometry already fetched from the graph (which this needs no more, so it
+/// can run on several threads).
+///
+/// The first-order covariance of `e` (module doc) is expressed in the frame the adjoint of the cycle
+/// `P` moves it to: the norm is the same in any frame, and `Ad(P) e = e` since `e = Log(P)`. There,
+/// with `A = z_a⁻¹` and `B = z_a⁻¹ · odom(t_a → t_b) · z_b`, it is
+/// `Σ_a + Ad(A) Σ_ta→tb Ad(A)ᵀ + Ad(B) (Σ_b + Σ_sb→sa) Ad(B)ᵀ`, the odometry's covariances taken as the
+/// graph reports them (left-perturbed, in their target frames): two transports where composing the
+/// four pieces one by one takes five, and the same value up to rounding.
+pub fn cycle_squared_mahalanobis(a: &PcmLoop, b: &PcmLoop, odometry: &CycleOdometry) -> Option<f64> {
+    let (odom_target, odom_source) = (&odometry.targets, &odometry.sources);
     let (za, zb) = (&a.target_from_source, &b.target_from_source);
     let (ob, od) = (&odom_target.target_from_source, &odom_source.target_from_source);
-    let cd = zb * od;
-    let cycle = za.inverse() * ob * cd;
+    let za_inverse = za.inverse();
+    let through_b = za_inverse * ob * zb;
+    let cycle = through_b * od;
     let error = se3_log(&cycle);
-    let sigma_b = left_to_right(ob, &odom_target.covariance);
-    let sigma_d = left_to_right(od, &odom_source.covariance);
-    let covariance = transport(&adjoint(&cycle.inverse()), &a.covariance)
-        + transport(&adjoint(&cd.inverse()), &sigma_b)
-        + transport(&adjoint(&od.inverse()), &b.covariance)
-        + sigma_d;
+    let covariance = a.covariance
+        + transport(&adjoint(&za_inverse), &odom_target.covariance)
+        + transport(&adjoint(&through_b), &(b.covariance + odom_source.covariance));
     let symmetric = (covariance + covariance.transpose()) * 0.5;
     if symmetric.iter().any(|v| !v.is_finite()) || error.iter().any(|v| !v.is_finite()) {
         return None;
@@ -186,5 +215,74 @@ mod tests {
         let mut bad_information = closure(3, k(0, 1), k(1, 1), Pose::identity());
         bad_information.information[(2, 2)] = -1.0;
         assert!(PcmLoop::from_closure(&bad_information).is_err());
+    }
+
+    /// The cycle's norm composed piece by piece in the cycle's first frame (the module doc's formula,
+    /// five transports), as a reference for the two-transport form.
+    fn composed_piece_by_piece(a: &PcmLoop, b: &PcmLoop, odometry: &CycleOdometry) -> f64 {
+        use crate::lie::left_to_right;
+        let (ob, od) = (
+            &odometry.targets.target_from_source,
+            &odometry.sources.target_from_source,
+        );
+        let cd = b.target_from_source * od;
+        let cycle = a.target_from_source.inverse() * ob * cd;
+        let covariance = transport(&adjoint(&cycle.inverse()), &a.covariance)
+            + transport(
+                &adjoint(&cd.inverse()),
+                &left_to_right(ob, &odometry.targets.covariance),
+            )
+            + transport(&adjoint(&od.inverse()), &b.covariance)
+            + left_to_right(od, &odometry.sources.covariance);
+        let symmetric = (covariance + covariance.transpose()) * 0.5;
+        let whitened = symmetric
+            .cholesky()
+            .unwrap()
+            .l()
+            .solve_lower_triangular(&se3_log(&cycle))
+            .unwrap();
+        whitened.norm_squared()
+    }
+
+    #[test]
+    fn the_two_transport_form_equals_the_piece_by_piece_one() {
+        // Loops and odometry far from the identity, with full covariances, so that every frame matters.
+        let pose = |k: f64| {
+            Pose::new(
+                Vector3::new(3.0 * k, -2.0 + k, 0.5 * k),
+                Vector3::new(0.1 * k, -0.2, 0.7 * k),
+            )
+        };
+        let covariance = |k: f64| {
+            let m = nalgebra::Matrix6::from_fn(|i, j| ((i * 7 + j * 3) as f64 * k).sin());
+            m * m.transpose() * 1e-3 + Information::identity() * 1e-4
+        };
+        for k in [0.3, 1.1, 2.7] {
+            let loop_of = |id: u64, z: Pose, c: nalgebra::Matrix6<f64>| PcmLoop {
+                id: LoopId(id),
+                target: KeyframeId::new(0, id as u32),
+                source: KeyframeId::new(1, id as u32),
+                target_from_source: z,
+                covariance: c,
+            };
+            let a = loop_of(1, pose(k), covariance(k));
+            let b = loop_of(2, pose(k + 0.4) * pose(0.2), covariance(k + 1.0));
+            let odometry = CycleOdometry {
+                targets: RelativePose {
+                    target_from_source: pose(-k),
+                    covariance: covariance(2.0 * k),
+                },
+                sources: RelativePose {
+                    target_from_source: pose(0.5 * k),
+                    covariance: covariance(3.0 * k),
+                },
+            };
+            let reference = composed_piece_by_piece(&a, &b, &odometry);
+            let fast = cycle_squared_mahalanobis(&a, &b, &odometry).unwrap();
+            assert!(
+                (fast - reference).abs() <= 1e-9 * reference.max(1.0),
+                "{fast} vs {reference}"
+            );
+        }
     }
 }
