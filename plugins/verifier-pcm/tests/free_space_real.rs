@@ -2,6 +2,8 @@
 //! Geiger et al. 2012) and the HDL-32E scan pair of fast_gicp, each pair registered by GICP from its
 //! reference, must pass; the same pairs moved off their alignment must not.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // Test code fails loudly by design.
+
 use skid_core::slots::FineRegistration;
 use skid_core::{CloudView, PluginContext, Point, Pose};
 use skid_fine_gicp::{GicpConfig, GicpRegistration};

@@ -86,7 +86,9 @@ fn scan(blocks: &[Block], x: f64) -> Vec<Point> {
 
 /// Every second slot taken, and its complement: two streets of one look that differ in every car.
 fn parked(every: usize, offset: usize) -> Vec<bool> {
-    (0..28).map(|slot| (slot / 2 + offset) % every == 0).collect()
+    (0..28)
+        .map(|slot| (slot / 2 + offset).is_multiple_of(every))
+        .collect()
 }
 
 #[test]
@@ -132,7 +134,7 @@ fn empty_and_non_finite_clouds_pass_without_evidence() {
     let config = FreeSpaceConfig::default();
     let blocks = street(&parked(2, 0));
     let full = scan(&blocks, 0.0);
-    let nan = vec![Point::new(f32::NAN, 0.0, 0.0); 10];
+    let nan = [Point::new(f32::NAN, 0.0, 0.0); 10];
     for (target, source) in [(&full[..], &[][..]), (&[][..], &full[..]), (&nan[..], &full[..])] {
         let count = config.count(target, source, &Pose::identity());
         assert_eq!(count.violating + count.agreeing, 0, "{count:?}");
