@@ -353,6 +353,10 @@ fn out_of_range_values_are_refused_at_load_time_naming_the_key() {
             "verifier.pcm.free_space.max_clustered_fraction",
         ),
         (
+            "verifier.pcm.odometry.max_drift_fraction=0",
+            "verifier.pcm.odometry.max_drift_fraction",
+        ),
+        (
             "verifier.pcm.consistency.consistency_probability=2",
             "verifier.pcm.consistency.consistency_probability",
         ),

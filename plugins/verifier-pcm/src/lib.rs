@@ -1,6 +1,7 @@
 //! SKiD loop verification: the two-stage outlier rejection of SKiD-SLAM (Kim et al., §IV-D): a
 //! truncated-MSE fitness check of each loop's clouds ([`fitness`]) and a check that the two clouds do
-//! not see through each other ([`free_space`]), then pairwise consistency maximisation (PCM; Mangelson
+//! not see through each other ([`free_space`]), a bound on an intra-robot loop's disagreement with the
+//! robot's odometry ([`odometry_bound`]), then pairwise consistency maximisation (PCM; Mangelson
 //! et al., ICRA 2018) over the loops of each robot pair ([`pcm`], [`consistency`], [`clique`],
 //! [`dense`]).
 //!
@@ -25,6 +26,7 @@ mod earned;
 pub mod fitness;
 pub mod free_space;
 pub mod lie;
+pub mod odometry_bound;
 pub mod pcm;
 mod predicted;
 mod ties;

@@ -9,15 +9,18 @@ use skid_core::{PluginError, PluginResult};
 use crate::consistency::PcmLoop;
 use crate::fitness::FitnessConfig;
 use crate::free_space::FreeSpaceConfig;
+use crate::odometry_bound::OdometryBound;
 use crate::pcm::{Pcm, PcmParams};
 
 /// Parameters of the `pcm` verifier: `[verifier.pcm]` with the fitness check in `[verifier.pcm.fitness]`,
-/// the free-space check in `[verifier.pcm.free_space]` and PCM in `[verifier.pcm.consistency]`.
+/// the free-space check in `[verifier.pcm.free_space]`, the odometry bound on intra-robot loops in
+/// `[verifier.pcm.odometry]` and PCM in `[verifier.pcm.consistency]`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PcmConfig {
     pub fitness: FitnessConfig,
     pub free_space: FreeSpaceConfig,
+    pub odometry: OdometryBound,
     pub consistency: PcmParams,
 }
 
@@ -85,6 +88,7 @@ fn unknown_keyframe(candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> Opt
 pub struct PcmVerifier {
     fitness: FitnessConfig,
     free_space: FreeSpaceConfig,
+    odometry: OdometryBound,
     pcm: Pcm,
 }
 
@@ -101,6 +105,7 @@ impl PcmVerifier {
         Self {
             fitness: config.fitness,
             free_space: config.free_space,
+            odometry: config.odometry,
             pcm: Pcm::from_checked(config.consistency),
         }
     }
@@ -127,7 +132,10 @@ impl Verifier for PcmVerifier {
             Ok(pcm_loop) => pcm_loop,
             Err(reason) => return reject(reason),
         };
-        if let Some(reason) = fitness_rejection(&self.fitness, candidate)
+        if let Some(reason) = self
+            .odometry
+            .refusal(&candidate.closure, graph)
+            .or_else(|| fitness_rejection(&self.fitness, candidate))
             .or_else(|| free_space_rejection(&self.free_space, candidate))
         {
             return reject(reason);
@@ -221,6 +229,9 @@ impl skid_core::PluginParams for PcmConfig {
         self.free_space
             .validate()
             .map_err(|error| error.in_table("free_space"))?;
+        self.odometry
+            .validate()
+            .map_err(|error| error.in_table("odometry"))?;
         self.consistency
             .validate()
             .map_err(|error| error.in_table("consistency"))

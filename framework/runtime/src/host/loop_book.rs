@@ -92,6 +92,8 @@ pub enum RejectionKind {
     TruncatedMse,
     /// The clouds see through each other (`free space: …`): two look-alike places, or a wrong alignment.
     FreeSpace,
+    /// An intra-robot loop farther from the robot's own odometry than odometry drifts (`odometry: …`).
+    Odometry,
     /// Not consistent with the other loops of its robot pair (`PCM: …`), or withheld with a set that
     /// was not granted.
     Consistency,
@@ -107,6 +109,7 @@ impl RejectionKind {
         match reason {
             r if r.starts_with("truncated MSE") => Self::TruncatedMse,
             r if r.starts_with("free space") => Self::FreeSpace,
+            r if r.starts_with("odometry") => Self::Odometry,
             r if r.starts_with("PCM") => Self::Consistency,
             r if r.starts_with("retracted") => Self::Retracted,
             _ => Self::Other,
@@ -118,6 +121,7 @@ impl RejectionKind {
         match self {
             Self::TruncatedMse => "truncated_mse",
             Self::FreeSpace => "free_space",
+            Self::Odometry => "odometry",
             Self::Consistency => "consistency",
             Self::Retracted => "retracted",
             Self::Other => "other",
@@ -381,6 +385,7 @@ mod tests {
             "free space: 3.10 % of the 5120 points both scans see stand where the other saw through (> 0.50 %)",
             "PCM: not in the maximum consistent set (12 of 14 loops)",
             "keyframe robot1/kf9 is not in the graph",
+            "odometry: the loop moves its keyframes 98.0 m from where the odometry puts them over 98.0 m of route (at most 26.5 m)",
         ];
         for (index, reason) in reasons.iter().enumerate() {
             let closure = book.new_loop(
@@ -397,12 +402,13 @@ mod tests {
         book.accept(taken);
         book.retract(accepted.id).unwrap();
         let stats = book.stats(BudgetFigures::default());
-        assert_eq!(stats.rejected, 5);
+        assert_eq!(stats.rejected, 6);
         let expected: BTreeMap<&str, usize> = [
             ("truncated_mse", 1),
             ("free_space", 1),
             ("consistency", 1),
             ("other", 1),
+            ("odometry", 1),
             ("retracted", 1),
         ]
         .into_iter()
