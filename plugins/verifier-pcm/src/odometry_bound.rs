@@ -107,7 +107,11 @@ mod tests {
             graph.push(KeyframeId::new(0, index), pose, Information::identity());
         }
         for index in 0..5 {
-            graph.push(KeyframeId::new(1, index), Pose::identity(), Information::identity());
+            graph.push(
+                KeyframeId::new(1, index),
+                Pose::identity(),
+                Information::identity(),
+            );
         }
         graph
     }
@@ -130,7 +134,9 @@ mod tests {
         assert_eq!(bound.refusal(&drifted, &graph), None);
         // The start seen again a block on: the loop puts keyframe 49 where keyframe 0 is.
         let block_off = closure(kf(0, 0), kf(0, 49), Pose::identity());
-        let reason = bound.refusal(&block_off, &graph).expect("a loop 98 m off is refused");
+        let reason = bound
+            .refusal(&block_off, &graph)
+            .expect("a loop 98 m off is refused");
         assert!(reason.starts_with("odometry:"), "{reason}");
         assert!(reason.contains("98.0 m of route"), "{reason}");
         // Either order of the keyframes measures the same route.
@@ -150,7 +156,10 @@ mod tests {
             enabled: false,
             ..OdometryBound::default()
         };
-        assert_eq!(off.refusal(&closure(kf(0, 0), kf(0, 49), Pose::identity()), &graph), None);
+        assert_eq!(
+            off.refusal(&closure(kf(0, 0), kf(0, 49), Pose::identity()), &graph),
+            None
+        );
     }
 
     #[test]
@@ -159,7 +168,12 @@ mod tests {
             max_drift_fraction: 0.0,
             ..OdometryBound::default()
         };
-        assert!(bad.validate().unwrap_err().to_string().contains("max_drift_fraction"));
+        assert!(
+            bad.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("max_drift_fraction")
+        );
         let bad = OdometryBound {
             allowance_m: f64::NAN,
             ..OdometryBound::default()
