@@ -79,6 +79,8 @@ impl Default for AliasingSettings {
                         "verifier.pcm.consistency.cycle_tolerance_deg=1e9".to_owned(),
                         "verifier.pcm.consistency.together_within_s=0".to_owned(),
                         "verifier.pcm.consistency.predicted_overlap_m=0".to_owned(),
+                        "verifier.pcm.free_space.enabled=false".to_owned(),
+                        "verifier.pcm.odometry.enabled=false".to_owned(),
                     ],
                 },
             ],
