@@ -95,8 +95,8 @@ impl CycleOdometry {
     }
 }
 
-/// [`squared_mahalanobis`] on odometry already fetched from the graph (which this needs no more, so it
-/// can run on several threads).
+/// [`squared_mahalanobis`] on odometry already fetched from the graph (a test gives it odometry of its
+/// own, with no graph).
 ///
 /// The first-order covariance of `e` (module doc) is expressed in the frame the adjoint of the cycle
 /// `P` moves it to: the norm is the same in any frame, and `Ad(P) e = e` since `e = Log(P)`. There,

@@ -24,7 +24,7 @@ use skid_core::slots::GraphView;
 use skid_core::{LoopId, ParamError, RobotId};
 
 use crate::clique::{Graph, extend_greedily, heuristic_clique, induced, max_clique, max_clique_within};
-use crate::consistency::{CycleOdometry, PcmLoop, cycle_squared_mahalanobis};
+use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::dense::consistent_core;
 use crate::earned::{GrantRule, Withheld, agrees_with_cycle, judge};
 use crate::lie::chi2_quantile;
@@ -371,8 +371,10 @@ impl Pcm {
             });
         }
         let v = group.graph.add_vertex();
-        for u in consistent_with(&group.loops, &pcm_loop, graph, self.threshold) {
-            group.graph.add_edge(u, v);
+        for u in 0..v {
+            if squared_mahalanobis(&group.loops[u], &pcm_loop, graph).is_some_and(|d2| d2 <= self.threshold) {
+                group.graph.add_edge(u, v);
+            }
         }
         group.loops.push(pcm_loop);
         let before: BTreeSet<usize> = group.granted().iter().copied().collect();
@@ -444,21 +446,6 @@ impl Pcm {
             exact: group.exact,
         })
     }
-}
-
-/// The indices of the loops of `members` consistent with `new` (their cycle's squared Mahalanobis norm
-/// within `threshold`).
-fn consistent_with(members: &[PcmLoop], new: &PcmLoop, graph: &dyn GraphView, threshold: f64) -> Vec<usize> {
-    members
-        .iter()
-        .enumerate()
-        .filter(|(_, a)| {
-            CycleOdometry::between(a, new, graph)
-                .and_then(|odometry| cycle_squared_mahalanobis(a, new, &odometry))
-                .is_some_and(|d2| d2 <= threshold)
-        })
-        .map(|(u, _)| u)
-        .collect()
 }
 
 #[cfg(test)]

@@ -16,6 +16,8 @@ use serde::Serialize;
 use skid_core::slots::{CoarseRegistration, FineRegistration};
 use skid_core::{Cloud, Params, PluginContext, Pose, Registry};
 use skid_eval::registration::{RegistrationPair, RegistrationThresholds, registration_stats};
+use skid_geometry::voxel_downsample;
+use skid_verifier_pcm::free_space::FreeSpaceConfig;
 
 /// Every method name the registration profiles know.
 pub const METHOD_NAMES: [&str; 10] = [
@@ -173,6 +175,37 @@ impl Outcome {
 /// The percentage of `total` that `count` is (0 for an empty set).
 pub fn percent(count: usize, total: usize) -> f64 {
     100.0 * count as f64 / total.max(1) as f64
+}
+
+/// The voxel edge keyframe clouds are kept at (what the verifier's checks see), metres.
+const KEYFRAME_VOXEL_M: f32 = 0.25;
+
+/// A pair's two clouds as the verifier's free-space check sees them: in their sensors' frames, at the
+/// keyframes' voxels, judged with the check's defaults.
+pub struct FreeSpaceJudge {
+    config: FreeSpaceConfig,
+    target_kept: Vec<skid_core::Point>,
+    source_kept: Vec<skid_core::Point>,
+}
+
+impl FreeSpaceJudge {
+    /// `target` and `source` in their sensors' frames.
+    pub fn new(target: &Cloud, source: &Cloud) -> Self {
+        Self {
+            config: FreeSpaceConfig::default(),
+            target_kept: voxel_downsample(&target.points, KEYFRAME_VOXEL_M),
+            source_kept: voxel_downsample(&source.points, KEYFRAME_VOXEL_M),
+        }
+    }
+
+    /// Whether the check refuses `estimate` (`target_from_source` between the sensors' frames); a
+    /// method that gave no estimate is not refused.
+    pub fn refuses(&self, estimate: Option<&Pose>) -> bool {
+        estimate.is_some_and(|estimate| {
+            let count = self.config.count(&self.target_kept, &self.source_kept, estimate);
+            self.config.judge(&count).is_some()
+        })
+    }
 }
 
 /// CPU seconds (user + system, all threads) this process has used, from `/proc/self/stat` (Linux; 10 ms

@@ -11,17 +11,12 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use skid_core::Pose;
 use skid_eval::registration::RegistrationPair;
-use skid_geometry::voxel_downsample;
 use skid_sim::WorldKind;
-use skid_verifier_pcm::free_space::FreeSpaceConfig;
 
 use super::pairs::{PairGeometry, PairKind, SimPair, sim_pairs, unit_hash};
 use super::reference::{REFERENCE_NAME, reference_kiss_matcher};
-use super::{METHOD_NAMES, Methods, check_methods, percent, pose_errors, summary};
+use super::{FreeSpaceJudge, METHOD_NAMES, Methods, check_methods, percent, pose_errors, summary};
 use crate::Report;
-
-/// The voxel edge keyframe clouds are kept at (what the verifier's checks see), metres.
-const KEYFRAME_VOXEL_M: f32 = 0.25;
 
 /// Parameters of the simulated table.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -149,20 +144,9 @@ fn world_results(
         &settings.geometry,
     )?;
     let mut results = Vec::new();
-    let free_space = FreeSpaceConfig::default();
     for (index, pair) in pairs.iter().enumerate() {
         let prior = prior_for(settings, index, &pair.truth);
-        // The verifier sees the keyframe clouds, 0.25 m voxel centroids.
-        let (target_kept, source_kept) = (
-            voxel_downsample(&pair.target.points, KEYFRAME_VOXEL_M),
-            voxel_downsample(&pair.source.points, KEYFRAME_VOXEL_M),
-        );
-        let refused = |estimate: &Option<Pose>| {
-            estimate.as_ref().is_some_and(|estimate| {
-                let count = free_space.count(&target_kept, &source_kept, estimate);
-                free_space.judge(&count).is_some()
-            })
-        };
+        let free_space = FreeSpaceJudge::new(&pair.target, &pair.source);
         for method in &settings.methods {
             let outcome = methods.run(method, &pair.target, &pair.source, &prior)?;
             let (translation, rotation, success) = pose_errors(&outcome.estimate, &pair.truth);
@@ -174,7 +158,7 @@ fn world_results(
                 inliers: outcome.inliers,
                 rival_inliers: outcome.rival_inliers,
                 ambiguous: outcome.ambiguous(),
-                free_space_refused: refused(&outcome.estimate),
+                free_space_refused: free_space.refuses(outcome.estimate.as_ref()),
                 time_ms: outcome.time_ms,
                 cpu_ms: outcome.cpu_ms,
                 estimate: outcome.estimate,

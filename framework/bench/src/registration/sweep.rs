@@ -14,12 +14,10 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use skid_core::{Cloud, Pose};
 use skid_eval::plot::{PlotOptions, Series, line_plot};
-use skid_geometry::voxel_downsample;
 use skid_sim::WorldKind;
-use skid_verifier_pcm::free_space::FreeSpaceConfig;
 
 use super::pairs::{PairKind, RouteSampler};
-use super::{Methods, Row, check_methods, mean, percent, pose_errors};
+use super::{FreeSpaceJudge, Methods, Row, check_methods, mean, percent, pose_errors};
 use crate::Report;
 
 /// Parameters of the sweep.
@@ -128,22 +126,17 @@ fn sweep_case(
     pairs_at: &mut dyn FnMut(f64) -> Result<Vec<SweepPair>>,
     entries: &mut Vec<SweepEntry>,
 ) -> Result<()> {
-    let free_space = FreeSpaceConfig::default();
     for &yaw_deg in yaws {
         for (variant, (target, source, truth, moved_from_sensor)) in pairs_at(yaw_deg)?.iter().enumerate() {
-            // The verifier sees the keyframe clouds (0.25 m voxel centroids) in their sensors' frames.
+            // The verifier sees the clouds in their sensors' frames.
             let sensor_target = target.view().transformed(&moved_from_sensor.inverse());
-            let (target_kept, source_kept) = (
-                voxel_downsample(&sensor_target.points, 0.25),
-                voxel_downsample(&source.points, 0.25),
-            );
+            let free_space = FreeSpaceJudge::new(&sensor_target, source);
             for method in &settings.methods {
                 let outcome = methods.run(method, target, source, &Pose::identity())?;
-                let free_space_refused = outcome.estimate.as_ref().is_some_and(|estimate| {
-                    let in_sensor_frame = moved_from_sensor.inverse() * estimate;
-                    let count = free_space.count(&target_kept, &source_kept, &in_sensor_frame);
-                    free_space.judge(&count).is_some()
-                });
+                let in_sensor_frames = outcome
+                    .estimate
+                    .map(|estimate| moved_from_sensor.inverse() * estimate);
+                let free_space_refused = free_space.refuses(in_sensor_frames.as_ref());
                 let (translation_error_m, rotation_error_deg, success) =
                     pose_errors(&outcome.estimate, truth);
                 entries.push(SweepEntry {
