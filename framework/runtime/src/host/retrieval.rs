@@ -45,6 +45,18 @@ pub(crate) fn unseen_by_sender(own_index: u32, newest_held: Option<u32>) -> bool
     newest_held.is_none_or(|held| own_index > held)
 }
 
+/// What the sender held of this robot's keyframes in this robot's current session: `newest_held`,
+/// unless it names a keyframe newer than this robot's newest (`newest_own`). A sender cannot hold a
+/// keyframe that was not made yet, so such a figure describes an earlier session of this robot (the
+/// process was restarted and makes its keyframes again); the sender saw none of the current ones, and
+/// every own keyframe is unseen.
+pub(crate) fn held_this_session(newest_held: Option<u32>, newest_own: Option<u32>) -> Option<u32> {
+    match (newest_held, newest_own) {
+        (Some(held), Some(own)) if held <= own => Some(held),
+        _ => None,
+    }
+}
+
 impl RobotHost {
     /// The largest descriptor distance of a candidate: `[loops] max_descriptor_distance`, or the
     /// descriptor's own threshold when that is 0.
@@ -73,6 +85,7 @@ impl RobotHost {
     ) -> Result<(), RuntimeError> {
         let me = self.robot;
         let newest_own = self.own.keyframes().keys().next_back().copied();
+        let newest_held = held_this_session(newest_held, newest_own);
         let nothing_unseen = newest_own.is_none_or(|newest| !unseen_by_sender(newest, newest_held));
         // With a prior and without own loops, robots close loops with the prior only.
         let prior_only = !crate::prior::closes_own_loops(config);
@@ -138,5 +151,15 @@ mod tests {
         assert!(unseen_by_sender(7, Some(6)));
         assert!(!unseen_by_sender(6, Some(6)));
         assert!(!unseen_by_sender(2, Some(6)));
+    }
+
+    #[test]
+    fn a_sender_that_held_keyframes_not_made_yet_saw_an_earlier_session() {
+        assert_eq!(held_this_session(Some(4), Some(9)), Some(4));
+        assert_eq!(held_this_session(Some(9), Some(9)), Some(9));
+        // Robot restarted: the sender held keyframe 30 of the process before; this one made 9.
+        assert_eq!(held_this_session(Some(30), Some(9)), None);
+        assert_eq!(held_this_session(Some(3), None), None);
+        assert_eq!(held_this_session(None, Some(9)), None);
     }
 }
