@@ -11,6 +11,7 @@
 //!   returns, IMU samples and ground truth; [`register`] adds it to a registry as the `sim` source.
 //! - [`export_kitti`] and [`preview_png`]: files for other tools and for eyes.
 
+pub mod bodies;
 pub mod bvh;
 mod error;
 pub mod geometry;
@@ -32,12 +33,13 @@ pub mod sensor_errors;
 mod source;
 pub mod trajectory;
 
+pub use bodies::{Body, BodyShape, Peers};
 pub use gait::Profile;
 pub use imu::{ImuNoise, ImuSimulator};
 pub use mission::{CONVOY_GAP_M, Mission, plan_mission, plan_wander};
 pub use motion::MotionSpec;
 pub use route::{Overlap, Route, plan_route};
-pub use scan::{ScanNoise, simulate_sweep};
+pub use scan::{ScanNoise, simulate_sweep, simulate_sweep_among};
 pub use sensor::{SENSOR_NAMES, Sensor};
 pub use source::{MAX_ROBOTS, NoiseModel, SimConfig, SimSource, register};
 pub use trajectory::Trajectory;

@@ -18,11 +18,13 @@
 use rayon::prelude::*;
 use skid_core::{Pose, RawPoint};
 
+use crate::bodies::{Peers, PlacedBody, cast_bodies};
 use crate::geometry::{Ray, V3};
 use crate::rng::{Rng, combine};
+use crate::sensor::SWEEP_PERIOD_S;
 use crate::sensor::Sensor;
 use crate::sensor_errors::{BeamErrors, detection_probability, mix_depth_edges, range_sigma_m, snr};
-use crate::world::World;
+use crate::world::{Hit, Material, World};
 
 /// Degradations applied to a sweep.
 #[derive(Clone, Debug, PartialEq)]
@@ -66,7 +68,7 @@ impl Default for ScanNoise {
 }
 
 fn cast_ray(
-    world: &World,
+    (world, bodies): (&World, &[PlacedBody]),
     sensor: &Sensor,
     noise: &ScanNoise,
     (origin, rotation): (V3, &[[f32; 3]; 3]),
@@ -80,7 +82,19 @@ fn cast_ray(
         rotation[1][0] * dir.x + rotation[1][1] * dir.y + rotation[1][2] * dir.z,
         rotation[2][0] * dir.x + rotation[2][1] * dir.y + rotation[2][2] * dir.z,
     );
-    let hit = world.cast(&Ray::new(origin, world_dir), sensor.max_range_m as f32)?;
+    let ray = Ray::new(origin, world_dir);
+    let surface = world.cast(&ray, sensor.max_range_m as f32);
+    let limit = surface
+        .as_ref()
+        .map_or(sensor.max_range_m as f32, |hit| hit.range_m);
+    let hit = match cast_bodies(bodies, &ray, limit) {
+        Some((range_m, normal)) => Hit {
+            range_m,
+            normal,
+            material: Material::Metal,
+        },
+        None => surface?,
+    };
     let range = f64::from(hit.range_m);
     if range < sensor.min_range_m {
         return None;
@@ -111,7 +125,8 @@ fn cast_ray(
 
 /// Simulates one sweep starting at `sweep_start_s`, with `world_from_sensor(t)` giving the sensor pose
 /// at absolute time t. Points are in the sensor frame of their own firing instant, in firing order.
-/// `key` seeds the noise; `parallel` spreads the groups over the current rayon pool.
+/// `key` seeds the noise; `parallel` spreads the groups over the current rayon pool. No other robot is
+/// in the world: see [`simulate_sweep_among`].
 pub fn simulate_sweep(
     world: &World,
     sensor: &Sensor,
@@ -121,10 +136,41 @@ pub fn simulate_sweep(
     key: u64,
     parallel: bool,
 ) -> Vec<RawPoint> {
+    let nobody = Peers::default();
+    simulate_sweep_among(
+        (world, &nobody),
+        sensor,
+        world_from_sensor,
+        sweep_start_s,
+        noise,
+        key,
+        parallel,
+    )
+}
+
+/// [`simulate_sweep`] in a world shared with `peers`: the other robots' bodies, each where its own
+/// trajectory has it at the instant a ray is fired.
+pub fn simulate_sweep_among(
+    (world, peers): (&World, &Peers),
+    sensor: &Sensor,
+    world_from_sensor: &(dyn Fn(f64) -> Pose + Sync),
+    sweep_start_s: f64,
+    noise: &ScanNoise,
+    key: u64,
+    parallel: bool,
+) -> Vec<RawPoint> {
     let per_group = sensor.rays_per_group();
+    let start = world_from_sensor(sweep_start_s).translation.vector;
+    let nearby = peers.within(
+        V3::from_f64(start.x, start.y, start.z),
+        sweep_start_s,
+        sweep_start_s + SWEEP_PERIOD_S,
+        sensor.max_range_m as f32,
+    );
     let group_points = |group: usize, out: &mut [Option<(f32, f32)>]| {
         let offset_s = sensor.group_time_offset_s(group);
         let pose = world_from_sensor(sweep_start_s + offset_s);
+        let bodies = Peers::placed(&nearby, sweep_start_s + offset_s);
         let t = pose.translation.vector;
         let origin = V3::from_f64(t.x, t.y, t.z);
         let m = pose.rotation.to_rotation_matrix();
@@ -132,7 +178,15 @@ pub fn simulate_sweep(
         for (ray, slot) in out.iter_mut().enumerate() {
             let dir = sensor.direction(group, ray, sweep_start_s);
             let ray_key = combine(key, (group * per_group + ray) as u64);
-            *slot = cast_ray(world, sensor, noise, (origin, &rotation), ray, dir, ray_key);
+            *slot = cast_ray(
+                (world, &bodies),
+                sensor,
+                noise,
+                (origin, &rotation),
+                ray,
+                dir,
+                ray_key,
+            );
         }
     };
     let mut slots: Vec<Option<(f32, f32)>> = vec![None; sensor.rays_per_sweep()];

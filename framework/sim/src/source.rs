@@ -9,13 +9,14 @@ use skid_core::slots::Source;
 use skid_core::{PluginContext, PluginEntry, PluginError, PluginResult, Registry, RobotId, Scan};
 
 use crate::SimError;
+use crate::bodies::{Body, BodyShape, Peers};
 use crate::gait::Profile;
 use crate::imu::{ImuNoise, ImuSimulator};
 use crate::mission::{Mission, plan_mission, plan_wander};
 use crate::motion::{MotionSpec, trajectory};
 use crate::rng::combine;
 use crate::route::Route;
-use crate::scan::{ScanNoise, simulate_sweep};
+use crate::scan::{ScanNoise, simulate_sweep_among};
 use crate::sensor::{SWEEP_PERIOD_S, Sensor};
 use crate::sensor_errors::BeamErrors;
 use crate::trajectory::Trajectory;
@@ -98,6 +99,9 @@ pub struct SimConfig {
     pub keep_right_m: Option<f64>,
     /// Threads for ray casting; 0 = the plugin context's budget.
     pub threads: usize,
+    /// Render the fleet's other robots as solid bodies ([`crate::bodies`]): a robot's sweeps see the
+    /// peers within its range and line of sight, as a field team's do.
+    pub robot_bodies: bool,
 }
 
 impl Default for SimConfig {
@@ -126,6 +130,7 @@ impl Default for SimConfig {
             imu_clock_offset_s: 0.0,
             keep_right_m: None,
             threads: 0,
+            robot_bodies: true,
         }
     }
 }
@@ -289,6 +294,8 @@ pub struct SimSource {
     next_sequence: u32,
     scan_count: u32,
     pool: Option<rayon::ThreadPool>,
+    /// The other robots' bodies (empty with `robot_bodies = false` or a fleet of one).
+    peers: Peers,
 }
 
 impl std::fmt::Debug for SimSource {
@@ -312,14 +319,27 @@ impl SimSource {
             });
         }
         let (world, routes) = config.world_and_routes(kind);
-        let route = routes
-            .into_iter()
-            .nth(robot as usize)
-            .ok_or(SimError::RobotIndex {
-                index: robot,
-                robots: config.robots,
-            })?;
-        let trajectory = Arc::new(trajectory(&world, &route, &config.motion()));
+        let motion = config.motion();
+        let route = routes.get(robot as usize).cloned().ok_or(SimError::RobotIndex {
+            index: robot,
+            robots: config.robots,
+        })?;
+        let trajectory = Arc::new(trajectory(&world, &route, &motion));
+        let peers = if config.robot_bodies {
+            let shape = BodyShape::of(motion.profile, motion.mount_height_m);
+            let bodies = routes
+                .iter()
+                .enumerate()
+                .filter(|&(other, _)| other != robot as usize)
+                .map(|(_, other)| Body {
+                    trajectory: Arc::new(crate::motion::trajectory(&world, other, &motion)),
+                    shape,
+                })
+                .collect();
+            Peers::new(bodies)
+        } else {
+            Peers::default()
+        };
         // The last sweep must end before the trajectory does.
         let available = ((trajectory.end_s() - SWEEP_PERIOD_S) / SWEEP_PERIOD_S)
             .floor()
@@ -364,6 +384,7 @@ impl SimSource {
             next_sequence: 0,
             scan_count,
             pool,
+            peers,
         })
     }
 
@@ -404,8 +425,8 @@ impl SimSource {
         let key = combine(self.key, u64::from(sequence) + 2);
         let points = match &self.pool {
             Some(pool) => pool.install(|| {
-                simulate_sweep(
-                    &self.world,
+                simulate_sweep_among(
+                    (&self.world, &self.peers),
                     &self.sensor,
                     &poses,
                     sweep_start_s,
@@ -414,8 +435,8 @@ impl SimSource {
                     true,
                 )
             }),
-            None => simulate_sweep(
-                &self.world,
+            None => simulate_sweep_among(
+                (&self.world, &self.peers),
                 &self.sensor,
                 &poses,
                 sweep_start_s,

@@ -6,6 +6,7 @@
 
 mod api;
 mod blocks;
+mod bodies;
 mod common;
 mod geometry;
 mod missions;
