@@ -81,6 +81,7 @@ impl Default for AliasingSettings {
                         "verifier.pcm.consistency.predicted_overlap_m=0".to_owned(),
                         "verifier.pcm.free_space.enabled=false".to_owned(),
                         "verifier.pcm.odometry.enabled=false".to_owned(),
+                        "verifier.pcm.peer_seen.enabled=false".to_owned(),
                     ],
                 },
             ],

@@ -357,6 +357,10 @@ fn out_of_range_values_are_refused_at_load_time_naming_the_key() {
             "verifier.pcm.odometry.max_drift_fraction",
         ),
         (
+            "verifier.pcm.peer_seen.max_through_fraction=2",
+            "verifier.pcm.peer_seen.max_through_fraction",
+        ),
+        (
             "verifier.pcm.consistency.consistency_probability=2",
             "verifier.pcm.consistency.consistency_probability",
         ),

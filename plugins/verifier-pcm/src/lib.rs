@@ -28,6 +28,7 @@ pub mod free_space;
 pub mod lie;
 pub mod odometry_bound;
 pub mod pcm;
+pub mod peer_seen;
 mod predicted;
 mod ties;
 pub mod verifier;

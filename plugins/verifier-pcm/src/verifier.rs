@@ -1,5 +1,5 @@
-//! The verifier plugins: `pcm` (SKiD-SLAM's two stages, the cloud checks — truncated MSE, free space —
-//! then PCM) and `gnc` (the cloud checks only; the outliers are left to graduated non-convexity in the
+//! The verifier plugins: `pcm` (SKiD-SLAM's two stages, the cloud checks — truncated MSE, free space,
+//! the peer's visibility — then PCM) and `gnc` (the cloud checks only; the outliers are left to graduated non-convexity in the
 //! back-end, for ablation).
 
 use serde::{Deserialize, Serialize};
@@ -11,15 +11,18 @@ use crate::fitness::FitnessConfig;
 use crate::free_space::FreeSpaceConfig;
 use crate::odometry_bound::OdometryBound;
 use crate::pcm::{Pcm, PcmParams};
+use crate::peer_seen::PeerSeenConfig;
 
 /// Parameters of the `pcm` verifier: `[verifier.pcm]` with the fitness check in `[verifier.pcm.fitness]`,
-/// the free-space check in `[verifier.pcm.free_space]`, the odometry bound on intra-robot loops in
-/// `[verifier.pcm.odometry]` and PCM in `[verifier.pcm.consistency]`.
+/// the free-space check in `[verifier.pcm.free_space]`, the peer-visibility check in
+/// `[verifier.pcm.peer_seen]`, the odometry bound on intra-robot loops in `[verifier.pcm.odometry]` and
+/// PCM in `[verifier.pcm.consistency]`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PcmConfig {
     pub fitness: FitnessConfig,
     pub free_space: FreeSpaceConfig,
+    pub peer_seen: PeerSeenConfig,
     pub odometry: OdometryBound,
     pub consistency: PcmParams,
 }
@@ -30,6 +33,7 @@ pub struct PcmConfig {
 pub struct GncConfig {
     pub fitness: FitnessConfig,
     pub free_space: FreeSpaceConfig,
+    pub peer_seen: PeerSeenConfig,
 }
 
 /// Runs the fitness check on a candidate: `Some(reason)` when it fails. A candidate without clouds (a
@@ -75,6 +79,20 @@ fn free_space_rejection(config: &FreeSpaceConfig, candidate: &LoopCandidate<'_>)
     config.judge(&count)
 }
 
+/// Runs the peer-visibility check on a candidate: `Some(reason)` when it puts one robot in the other's
+/// view at one moment and that one's scan shows it absent.
+fn peer_seen_rejection(
+    config: &PeerSeenConfig,
+    candidate: &LoopCandidate<'_>,
+    graph: &dyn GraphView,
+) -> Option<String> {
+    config.refusal(
+        &candidate.closure,
+        (candidate.target_cloud.points(), candidate.source_cloud.points()),
+        graph,
+    )
+}
+
 /// Checks that both keyframes of a loop are in the graph.
 fn unknown_keyframe(candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> Option<String> {
     let closure = &candidate.closure;
@@ -88,6 +106,7 @@ fn unknown_keyframe(candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> Opt
 pub struct PcmVerifier {
     fitness: FitnessConfig,
     free_space: FreeSpaceConfig,
+    peer_seen: PeerSeenConfig,
     odometry: OdometryBound,
     pcm: Pcm,
 }
@@ -105,6 +124,7 @@ impl PcmVerifier {
         Self {
             fitness: config.fitness,
             free_space: config.free_space,
+            peer_seen: config.peer_seen,
             odometry: config.odometry,
             pcm: Pcm::from_checked(config.consistency),
         }
@@ -137,6 +157,7 @@ impl Verifier for PcmVerifier {
             .refusal(&candidate.closure, graph)
             .or_else(|| fitness_rejection(&self.fitness, candidate))
             .or_else(|| free_space_rejection(&self.free_space, candidate))
+            .or_else(|| peer_seen_rejection(&self.peer_seen, candidate, graph))
         {
             return reject(reason);
         }
@@ -184,6 +205,7 @@ impl Verifier for PcmVerifier {
 pub struct GncVerifier {
     fitness: FitnessConfig,
     free_space: FreeSpaceConfig,
+    peer_seen: PeerSeenConfig,
 }
 
 impl GncVerifier {
@@ -197,6 +219,7 @@ impl GncVerifier {
         Ok(Self {
             fitness: config.fitness,
             free_space: config.free_space,
+            peer_seen: config.peer_seen,
         })
     }
 }
@@ -207,7 +230,8 @@ impl Verifier for GncVerifier {
         let reason = unknown_keyframe(candidate, graph)
             .or_else(|| PcmLoop::from_closure(&candidate.closure).err())
             .or_else(|| fitness_rejection(&self.fitness, candidate))
-            .or_else(|| free_space_rejection(&self.free_space, candidate));
+            .or_else(|| free_space_rejection(&self.free_space, candidate))
+            .or_else(|| peer_seen_rejection(&self.peer_seen, candidate, graph));
         Ok(match reason {
             Some(reason) => Verdict {
                 rejected: vec![(id, reason)],
@@ -229,6 +253,9 @@ impl skid_core::PluginParams for PcmConfig {
         self.free_space
             .validate()
             .map_err(|error| error.in_table("free_space"))?;
+        self.peer_seen
+            .validate()
+            .map_err(|error| error.in_table("peer_seen"))?;
         self.odometry
             .validate()
             .map_err(|error| error.in_table("odometry"))?;
@@ -245,6 +272,9 @@ impl skid_core::PluginParams for GncConfig {
             .map_err(|error| error.in_table("fitness"))?;
         self.free_space
             .validate()
-            .map_err(|error| error.in_table("free_space"))
+            .map_err(|error| error.in_table("free_space"))?;
+        self.peer_seen
+            .validate()
+            .map_err(|error| error.in_table("peer_seen"))
     }
 }

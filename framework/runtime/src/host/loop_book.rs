@@ -94,6 +94,9 @@ pub enum RejectionKind {
     FreeSpace,
     /// An intra-robot loop farther from the robot's own odometry than odometry drifts (`odometry: …`).
     Odometry,
+    /// An inter-robot loop that puts a robot in the other's view at one moment where that one's scan
+    /// shows it absent (`peer unseen: …`).
+    PeerUnseen,
     /// Not consistent with the other loops of its robot pair (`PCM: …`), or withheld with a set that
     /// was not granted.
     Consistency,
@@ -110,6 +113,7 @@ impl RejectionKind {
             r if r.starts_with("truncated MSE") => Self::TruncatedMse,
             r if r.starts_with("free space") => Self::FreeSpace,
             r if r.starts_with("odometry") => Self::Odometry,
+            r if r.starts_with("peer unseen") => Self::PeerUnseen,
             r if r.starts_with("PCM") => Self::Consistency,
             r if r.starts_with("retracted") => Self::Retracted,
             _ => Self::Other,
@@ -122,6 +126,7 @@ impl RejectionKind {
             Self::TruncatedMse => "truncated_mse",
             Self::FreeSpace => "free_space",
             Self::Odometry => "odometry",
+            Self::PeerUnseen => "peer_unseen",
             Self::Consistency => "consistency",
             Self::Retracted => "retracted",
             Self::Other => "other",
@@ -386,6 +391,7 @@ mod tests {
             "PCM: not in the maximum consistent set (12 of 14 loops)",
             "keyframe robot1/kf9 is not in the graph",
             "odometry: the loop moves its keyframes 98.0 m from where the odometry puts them over 98.0 m of route (at most 26.5 m)",
+            "peer unseen: the loop puts robot robot1 2.5 m from robot0/kf4's sensor at that moment, but 30 of the 31 rays towards it passed through (> 80 %)",
         ];
         for (index, reason) in reasons.iter().enumerate() {
             let closure = book.new_loop(
@@ -402,13 +408,14 @@ mod tests {
         book.accept(taken);
         book.retract(accepted.id).unwrap();
         let stats = book.stats(BudgetFigures::default());
-        assert_eq!(stats.rejected, 6);
+        assert_eq!(stats.rejected, 7);
         let expected: BTreeMap<&str, usize> = [
             ("truncated_mse", 1),
             ("free_space", 1),
             ("consistency", 1),
             ("other", 1),
             ("odometry", 1),
+            ("peer_unseen", 1),
             ("retracted", 1),
         ]
         .into_iter()
