@@ -85,6 +85,12 @@ impl PlacedBody {
     /// Where `ray` enters the box within `t_max`, and the world normal of the face it enters.
     pub(crate) fn cast(&self, ray: &Ray, t_max: f32) -> Option<(f32, V3)> {
         let offset = ray.origin - self.centre;
+        // Most rays pass far from a body: test its bounding sphere first.
+        let along = -offset.dot(ray.dir);
+        let radius_squared = self.half.dot(self.half);
+        if along < -self.half.norm() || offset.dot(offset) - along * along > radius_squared {
+            return None;
+        }
         let local = |v: V3| V3::new(v.dot(self.axes[0]), v.dot(self.axes[1]), v.dot(self.axes[2]));
         let local_ray = Ray::new(local(offset), local(ray.dir));
         let min = V3::new(-self.half.x, -self.half.y, -self.half.z);
