@@ -9,7 +9,7 @@
 //! the carriers' rough sizes: a ground rover's chassis of 1.0 × 0.8 m under its sensor mast (a Clearpath
 //! Husky is 0.99 × 0.67 × 0.39 m), a quadruped's body of 1.0 × 0.5 m (Boston Dynamics Spot: 1.1 × 0.5 m),
 //! the person carrying a handheld unit, a drone of 0.7 × 0.7 m. Every one of them holds the core that
-//! the verifier looks for by default: 0.3 × 0.3 × 0.1 m centred 0.25 m below the sensor.
+//! the verifier looks for by default: 0.3 × 0.3 × 0.1 m centred 0.3 m below the sensor.
 
 use std::sync::Arc;
 
@@ -38,8 +38,8 @@ impl BodyShape {
             Profile::Legged => Self::spanning([-0.5, -0.25, -0.40], [0.5, 0.25, -0.05]),
             // A person holding the unit at chest height, standing behind it.
             Profile::Handheld => Self::spanning([-0.45, -0.25, -mount_m], [0.15, 0.25, 0.35]),
-            // A multirotor's frame, battery and landing gear around the sensor.
-            Profile::Aerial => Self::spanning([-0.35, -0.35, -0.30], [0.35, 0.35, 0.05]),
+            // A multirotor's frame, battery and landing gear around the sensor (a DJI M300 stands 0.43 m).
+            Profile::Aerial => Self::spanning([-0.35, -0.35, -0.40], [0.35, 0.35, 0.05]),
         }
     }
 
@@ -170,8 +170,8 @@ mod tests {
 
     #[test]
     fn every_carrier_holds_the_verifiers_default_core() {
-        let core_min = [-0.15f32, -0.15, -0.30];
-        let core_max = [0.15f32, 0.15, -0.20];
+        let core_min = [-0.15f32, -0.15, -0.35];
+        let core_max = [0.15f32, 0.15, -0.25];
         for profile in [
             Profile::Ground,
             Profile::FastTurn,

@@ -15,7 +15,7 @@
 //! ## Definition
 //!
 //! The peer's **core** is a box fixed in its sensor frame (`core_centre_m`, `core_half_extents_m`; by
-//! default 0.3 × 0.3 × 0.1 m centred 0.25 m under the sensor), small enough to lie inside any carrier's
+//! default 0.3 × 0.3 × 0.1 m centred 0.3 m under the sensor), small enough to lie inside any carrier's
 //! body: a rover's chassis, a quadruped, the person carrying a handheld unit, a multirotor. Where the
 //! peer was at the target keyframe's stamp is interpolated between the peer's two keyframes around that
 //! stamp (at most `within_s` from it), through the peer's odometry from the loop's source keyframe.
@@ -23,7 +23,9 @@
 //! ends before the core's far side plus the margin (`margin_m` + `margin_fraction` · range:
 //! **blocked**, by the body or by something in front of it) or beyond it (**through**). The loop is
 //! refused when at least `min_rays` rays cross the core and more than `max_through_fraction` of them
-//! pass through; the check runs both ways (the target robot in the source scan too) and only where the
+//! pass through. A body in the scan lets no ray through its core (the core is inside it), so a few rays
+//! through are evidence enough; a keyframe's cloud, thinned to 0.25 m voxels, leaves only a handful of
+//! rays in the core's direction at 5–15 m, so the default asks for 3; the check runs both ways (the target robot in the source scan too) and only where the
 //! core is `min_range_m` to `max_range_m` from the sensor. Keyframes recorded farther apart in time
 //! than `within_s` say nothing about where the other robot was, and are not checked.
 //!
@@ -65,13 +67,13 @@ impl Default for PeerSeenConfig {
         Self {
             enabled: true,
             within_s: 1.0,
-            core_centre_m: [0.0, 0.0, -0.25],
+            core_centre_m: [0.0, 0.0, -0.30],
             core_half_extents_m: [0.15, 0.15, 0.05],
             min_range_m: 1.5,
             max_range_m: 30.0,
             margin_m: 0.3,
             margin_fraction: 0.02,
-            min_rays: 8,
+            min_rays: 3,
             max_through_fraction: 0.8,
         }
     }
