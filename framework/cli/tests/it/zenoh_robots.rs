@@ -219,9 +219,11 @@ fn check_robot(summary: &serde_json::Value, robot: usize, stderr: &str) -> (u64,
 fn three_robot_processes_find_each_others_loops_over_zenoh() {
     let _turn = one_fleet_at_a_time();
     let fleet = Fleet::new("three", 3);
-    // Each robot answers its peers for 8 s after its last scan, so a loop robot 1 finds on its last
-    // keyframes still gets the peers' clouds on a loaded machine.
-    let children: Vec<RobotProcess> = (0..3).map(|robot| fleet.spawn(robot, 8.0)).collect();
+    // Each robot answers its peers for 20 s after its last scan: on a loaded machine a robot that
+    // verifies many loops falls well behind real time, and finds its loops with robot 1 (whose scans may
+    // all be made before that robot's descriptors of the shared street arrive) after robot 1's source
+    // has ended.
+    let children: Vec<RobotProcess> = (0..3).map(|robot| fleet.spawn(robot, 20.0)).collect();
     let mut clouds_fetched = 0;
     let mut found_total = 0;
     for (robot, child) in children.into_iter().enumerate() {
