@@ -119,10 +119,6 @@ impl Peers {
         Self { bodies }
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.bodies.is_empty()
-    }
-
     /// The bodies that may be within `reach_m` of `position` during a sweep from `start_s` to `end_s`
     /// (checked at both ends, with the distance a robot covers in a sweep as slack).
     pub(crate) fn within(&self, position: V3, start_s: f64, end_s: f64, reach_m: f32) -> Vec<&Body> {

@@ -30,6 +30,8 @@ pub mod odometry_bound;
 pub mod pcm;
 pub mod peer_seen;
 mod predicted;
+#[cfg(test)]
+mod test_scene;
 mod ties;
 pub mod verifier;
 

@@ -96,8 +96,10 @@ fn route_length_m(a: KeyframeId, b: KeyframeId, graph: &dyn GraphView) -> Option
 #[cfg(test)]
 mod tests {
     use super::*;
-    use skid_core::{Information, LoopId, Pose};
+    use skid_core::{Information, Pose};
     use skid_testkit::backend::ChainGraph;
+
+    use crate::test_scene::closure;
 
     /// Robot 0 drives 2 m per keyframe along x for keyframes 0–49 (98 m); robot 1 holds keyframes 0–4.
     fn route() -> ChainGraph {
@@ -114,16 +116,6 @@ mod tests {
             );
         }
         graph
-    }
-
-    fn closure(target: KeyframeId, source: KeyframeId, target_from_source: Pose) -> LoopClosure {
-        LoopClosure {
-            id: LoopId(1),
-            target,
-            source,
-            target_from_source,
-            information: Information::identity(),
-        }
     }
 
     #[test]

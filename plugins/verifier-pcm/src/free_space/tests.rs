@@ -5,11 +5,7 @@ use super::*;
 use nalgebra::Vector3;
 use skid_geometry::voxel_downsample;
 
-/// An axis-aligned box, `min` to `max`, metres in the world.
-struct Block {
-    min: Vector3<f64>,
-    max: Vector3<f64>,
-}
+use crate::test_scene::{Block, hit};
 
 /// A straight street between two facades 10 m either side of its centre line, on flat ground 1.8 m
 /// below the sensor, with parked cars (4.4 m × 1.8 m × 1.5 m) in the slots `cars` names, every 6 m
@@ -34,24 +30,6 @@ fn street(cars: &[bool]) -> Vec<Block> {
         });
     }
     blocks
-}
-
-/// The distance along a unit ray from `origin` to a block, if it hits.
-fn hit(block: &Block, origin: &Vector3<f64>, direction: &Vector3<f64>) -> Option<f64> {
-    let (mut near, mut far) = (0.0_f64, f64::INFINITY);
-    for axis in 0..3 {
-        if direction[axis].abs() < 1e-12 {
-            if origin[axis] < block.min[axis] || origin[axis] > block.max[axis] {
-                return None;
-            }
-            continue;
-        }
-        let a = (block.min[axis] - origin[axis]) / direction[axis];
-        let b = (block.max[axis] - origin[axis]) / direction[axis];
-        near = near.max(a.min(b));
-        far = far.min(a.max(b));
-    }
-    (near <= far && near > 0.0).then_some(near)
 }
 
 /// A sweep of 32 beams from -16° to +15° in elevation (1° apart) and 0.35° in azimuth, from a sensor at

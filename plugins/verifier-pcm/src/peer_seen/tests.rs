@@ -3,9 +3,12 @@
 //! was or not at all, seen by a 64-beam spinning LiDAR and thinned to the keyframes' 0.25 m voxels.
 
 use super::*;
+use skid_core::Information;
 use skid_core::slots::RelativePose;
-use skid_core::{Information, LoopId, RobotId};
 use skid_geometry::voxel_downsample;
+use skid_testkit::scene::planar_pose;
+
+use crate::test_scene::{Block, closure, hit};
 
 /// Two robots driving straight along their own x axes at 2 m/s, a keyframe every 0.5 s (1 m); robot
 /// 1's clock stamps `offset_s` later than robot 0's.
@@ -42,49 +45,13 @@ impl GraphView for TwoRobots {
     }
 }
 
-fn keyframe(robot: u32, index: u32) -> KeyframeId {
-    KeyframeId {
-        robot: RobotId(robot),
-        index,
-    }
-}
-
-fn pose(x: f64, y: f64, yaw_deg: f64) -> Pose {
-    Pose::from_parts(
-        nalgebra::Translation3::new(x, y, 0.0),
-        nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, yaw_deg.to_radians()),
-    )
-}
-
-/// The distance along a unit ray from `origin` to the box `[min, max]`, if it hits ahead.
-fn hit(
-    min: &Vector3<f64>,
-    max: &Vector3<f64>,
-    origin: &Vector3<f64>,
-    direction: &Vector3<f64>,
-) -> Option<f64> {
-    let (mut near, mut far) = (0.0_f64, f64::INFINITY);
-    for axis in 0..3 {
-        if direction[axis].abs() < 1e-12 {
-            if origin[axis] < min[axis] || origin[axis] > max[axis] {
-                return None;
-            }
-            continue;
-        }
-        let (a, b) = (
-            (min[axis] - origin[axis]) / direction[axis],
-            (max[axis] - origin[axis]) / direction[axis],
-        );
-        near = near.max(a.min(b));
-        far = far.min(a.max(b));
-    }
-    (near <= far && near > 0.0).then_some(near)
-}
-
 /// A sweep of 64 beams from −16.6° to +16.6° and 1024 columns, from a sensor 0.8 m above flat ground
 /// with a wall 30 m ahead, with a rover whose sensor is at `peer` (in this sensor's frame) if any.
 fn scan(peer: Option<Pose>) -> Vec<Point> {
-    let (body_min, body_max) = (Vector3::new(-0.5, -0.4, -0.65), Vector3::new(0.5, 0.4, -0.15));
+    let rover = Block {
+        min: Vector3::new(-0.5, -0.4, -0.65),
+        max: Vector3::new(0.5, 0.4, -0.15),
+    };
     let mut points = Vec::new();
     for row in 0..64 {
         let elevation = (-16.6 + 33.2 * f64::from(row) / 63.0_f64).to_radians();
@@ -100,12 +67,7 @@ fn scan(peer: Option<Pose>) -> Vec<Point> {
             let body = peer.and_then(|peer| {
                 let inverse = peer.inverse();
                 let origin = inverse * Point3::origin();
-                hit(
-                    &body_min,
-                    &body_max,
-                    &origin.coords,
-                    &(inverse.rotation * direction),
-                )
+                hit(&rover, &origin.coords, &(inverse.rotation * direction))
             });
             let nearest = [ground, wall, body]
                 .into_iter()
@@ -120,21 +82,11 @@ fn scan(peer: Option<Pose>) -> Vec<Point> {
     voxel_downsample(&points, 0.25)
 }
 
-fn closure(target: KeyframeId, source: KeyframeId, target_from_source: Pose) -> LoopClosure {
-    LoopClosure {
-        id: LoopId(1),
-        target,
-        source,
-        target_from_source,
-        information: Information::identity(),
-    }
-}
-
 #[test]
 fn robots_side_by_side_that_see_each_other_pass() {
     let check = PeerSeenConfig::default();
-    let source_in_target = pose(3.0, 0.0, 90.0);
-    let loop_ = closure(keyframe(0, 4), keyframe(1, 4), source_in_target);
+    let source_in_target = planar_pose(3.0, 0.0, 0.0, f64::to_radians(90.0));
+    let loop_ = closure(KeyframeId::new(0, 4), KeyframeId::new(1, 4), source_in_target);
     let (target, source) = (
         scan(Some(source_in_target)),
         scan(Some(source_in_target.inverse())),
@@ -150,8 +102,8 @@ fn robots_side_by_side_that_see_each_other_pass() {
 #[test]
 fn robots_side_by_side_that_do_not_see_each_other_are_refused() {
     let check = PeerSeenConfig::default();
-    let source_in_target = pose(2.5, 0.0, 90.0);
-    let loop_ = closure(keyframe(0, 4), keyframe(1, 4), source_in_target);
+    let source_in_target = planar_pose(2.5, 0.0, 0.0, f64::to_radians(90.0));
+    let loop_ = closure(KeyframeId::new(0, 4), KeyframeId::new(1, 4), source_in_target);
     let (target, source) = (scan(None), scan(None));
     let graph = TwoRobots { offset_s: 0.0 };
     let reason = check
@@ -162,7 +114,7 @@ fn robots_side_by_side_that_do_not_see_each_other_are_refused() {
     let later = TwoRobots { offset_s: 20.0 };
     assert_eq!(check.refusal(&loop_, (&target, &source), &later), None);
     // Nor does an intra-robot loop, or a check turned off.
-    let own = closure(keyframe(0, 4), keyframe(0, 9), source_in_target);
+    let own = closure(KeyframeId::new(0, 4), KeyframeId::new(0, 9), source_in_target);
     assert_eq!(check.refusal(&own, (&target, &source), &graph), None);
     let off = PeerSeenConfig {
         enabled: false,
@@ -176,10 +128,14 @@ fn the_peer_is_looked_for_where_its_odometry_has_it_at_the_seers_stamp() {
     let check = PeerSeenConfig::default();
     // Robot 1's keyframe 6 (1 s after robot 0's keyframe 4) is 5 m ahead, facing along x: at robot 0's
     // stamp it was two keyframes (2 m) earlier, 3 m ahead.
-    let loop_ = closure(keyframe(0, 4), keyframe(1, 6), pose(5.0, 0.0, 0.0));
+    let loop_ = closure(
+        KeyframeId::new(0, 4),
+        KeyframeId::new(1, 6),
+        Pose::translation(5.0, 0.0, 0.0),
+    );
     let graph = TwoRobots { offset_s: 0.0 };
-    let seen_at_stamp = scan(Some(pose(3.0, 0.0, 0.0)));
-    let seen_later = scan(Some(pose(5.0, 0.0, 0.0)));
+    let seen_at_stamp = scan(Some(Pose::translation(3.0, 0.0, 0.0)));
+    let seen_later = scan(Some(Pose::translation(5.0, 0.0, 0.0)));
     let peer_view = scan(None);
     assert_eq!(check.refusal(&loop_, (&seen_at_stamp, &[]), &graph), None);
     let reason = check.refusal(&loop_, (&seen_later, &peer_view), &graph);
@@ -190,10 +146,14 @@ fn the_peer_is_looked_for_where_its_odometry_has_it_at_the_seers_stamp() {
 fn a_peer_beyond_the_range_or_behind_a_wall_is_not_judged() {
     let check = PeerSeenConfig::default();
     let graph = TwoRobots { offset_s: 0.0 };
-    let far = closure(keyframe(0, 4), keyframe(1, 4), pose(40.0, 0.0, 0.0));
+    let far = closure(
+        KeyframeId::new(0, 4),
+        KeyframeId::new(1, 4),
+        Pose::translation(40.0, 0.0, 0.0),
+    );
     assert_eq!(check.refusal(&far, (&scan(None), &scan(None)), &graph), None);
     // A rover 35 m away behind the wall at 30 m: every ray towards it is blocked.
-    let count = check.count(&scan(None), &pose(29.0, 0.0, 0.0));
+    let count = check.count(&scan(None), &Pose::translation(29.0, 0.0, 0.0));
     assert_eq!(count.through, 0, "{count:?}");
 }
 
