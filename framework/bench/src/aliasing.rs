@@ -105,8 +105,14 @@ pub struct MergeRow {
     pub frame_error_deg: Option<f64>,
     /// Which measure decided: `meeting`, `T_β,APE` or `anchored`.
     pub judged_by: &'static str,
-    /// Seconds of robot time until α first placed β in its frame.
+    /// Seconds of robot time until α first placed β in its frame (perhaps falsely, withdrawn later).
     pub joined_after_s: Option<f64>,
+    /// Seconds of robot time until the placement β ends the run with began: the time to the merge.
+    pub placed_since_s: Option<f64>,
+    /// Placements of β withdrawn (or overturned) during the run that were false (more than 2 m or 5°
+    /// from the truth at the robots' first poses), and the seconds β stood placed by them.
+    pub withdrawn_false_placements: usize,
+    pub withdrawn_false_placement_s: f64,
     /// The paper's `T_β,APE` itself, and whether either robot's route was too straight for its Umeyama
     /// alignment to fix the rotation (then `T_β,APE`'s rotation means nothing).
     pub t_beta_ape_m: Option<f64>,
@@ -195,6 +201,20 @@ pub fn run_one(
                 Some((m, deg)) if m > FALSE_MERGE_M || deg > FALSE_MERGE_DEG => "false merge",
                 Some(_) => "merged",
             };
+            let withdrawn_false: Vec<(f64, f64)> = beta
+                .alignment
+                .as_ref()
+                .map(|a| {
+                    a.placements
+                        .iter()
+                        .filter(|p| {
+                            p.frame_error.translation_m > FALSE_MERGE_M
+                                || p.frame_error.rotation_deg > FALSE_MERGE_DEG
+                        })
+                        .filter_map(|p| Some((p.from_s, p.until_s?)))
+                        .collect()
+                })
+                .unwrap_or_default();
             MergeRow {
                 world: world.to_owned(),
                 seed,
@@ -204,6 +224,9 @@ pub fn run_one(
                 frame_error_deg: error.map(|e| e.1),
                 judged_by,
                 joined_after_s: beta.alignment.as_ref().and_then(|a| a.joined_after_s),
+                placed_since_s: beta.alignment.as_ref().and_then(|a| a.placed_since_s),
+                withdrawn_false_placements: withdrawn_false.len(),
+                withdrawn_false_placement_s: withdrawn_false.iter().map(|(from, until)| until - from).sum(),
                 t_beta_ape_m: ape.map(|e| e.translation_m),
                 t_beta_ape_deg: ape.map(|e| e.rotation_deg),
                 straight_route,
@@ -229,6 +252,7 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
         "not merged",
         "worst true-merge error [m / °]",
         "median time to a true merge [s]",
+        "false placements withdrawn (robot-seconds placed falsely)",
         "T_β,APE over 2 m or 5° (of them on a straight route)",
         "ambiguous candidates refused",
     ]
@@ -250,7 +274,9 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
                 .iter()
                 .filter_map(|r| r.frame_error_deg)
                 .fold(0.0, f64::max);
-            let mut times: Vec<f64> = true_merges.iter().filter_map(|r| r.joined_after_s).collect();
+            let mut times: Vec<f64> = true_merges.iter().filter_map(|r| r.placed_since_s).collect();
+            let withdrawn: usize = mine.iter().map(|r| r.withdrawn_false_placements).sum();
+            let withdrawn_s: f64 = mine.iter().map(|r| r.withdrawn_false_placement_s).sum();
             let median_time = if times.is_empty() {
                 "–".to_owned()
             } else {
@@ -281,13 +307,14 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
                 count("not merged").to_string(),
                 format!("{worst_m:.2} / {worst_deg:.2}"),
                 median_time,
+                format!("{withdrawn} ({withdrawn_s:.0})"),
                 format!("{} ({ape_over_straight})", ape_over.len()),
                 ambiguous.to_string(),
             ]);
         }
     }
     format!(
-        "# aliasing\n\nMerges of robots β into robot α's frame in worlds that alias, {} robots, {} scans per robot, seeds {:?}. A false merge places β's frame more than {FALSE_MERGE_M} m or {FALSE_MERGE_DEG}° from the truth, judged where the robots met (the median error of the relative poses between their poses within 10 m of each other, in the merged map), which carries no drift from elsewhere on the routes; robots that never met are judged by the paper's `T_β,APE` (at the robots' first poses where a route is too straight for its Umeyama alignment). `T_β,APE` alone, which carries the odometry's drift, is counted beside. Variants: {}. Runtime overrides: `{}`.\n\n{}",
+        "# aliasing\n\nMerges of robots β into robot α's frame in worlds that alias, {} robots, {} scans per robot, seeds {:?}. A false merge places β's frame more than {FALSE_MERGE_M} m or {FALSE_MERGE_DEG}° from the truth, judged where the robots met (the median error of the relative poses between their poses within 10 m of each other, in the merged map), which carries no drift from elsewhere on the routes; the time to a true merge is when the placement the run ends with began, and placements withdrawn or overturned during the run are judged at the robots' first poses and counted when false; robots that never met are judged by the paper's `T_β,APE` (at the robots' first poses where a route is too straight for its Umeyama alignment). `T_β,APE` alone, which carries the odometry's drift, is counted beside. Variants: {}. Runtime overrides: `{}`.\n\n{}",
         settings.robots,
         settings.max_scans,
         settings.seeds,

@@ -36,6 +36,7 @@ mod merges;
 mod own_track;
 mod peer_clouds;
 mod peers;
+mod placements;
 mod prior_peer;
 mod repeats;
 mod restatements;
@@ -53,6 +54,7 @@ pub use loop_book::{LoopStanding, LoopStats, RejectionKind, StandingLoop};
 use own_track::OwnTrack;
 pub use own_track::ScanRecord;
 use peer_clouds::PeerClouds;
+pub use placements::Placement;
 pub use prior_peer::Localisation;
 use repeats::Repeats;
 pub use served_clouds::CloudServing;
@@ -287,9 +289,15 @@ impl RobotHost {
     }
 
     /// When each robot was first placed in this robot's frame (directly or through others), by this
-    /// host's clock (scan time in a fleet run).
-    pub fn first_joined_nanos(&self) -> &BTreeMap<RobotId, u64> {
-        self.frames.first_joined_nanos()
+    /// host's clock (scan time in a fleet run); a robot that left and came back keeps its first time.
+    pub fn first_joined_nanos(&self) -> BTreeMap<RobotId, u64> {
+        self.frames.placements().first_placed_nanos()
+    }
+
+    /// Every placement of every robot in this robot's frame over the run, oldest first: a merge
+    /// withdrawn, or a frame that jumped to another hypothesis, ends one.
+    pub fn placements(&self) -> &BTreeMap<RobotId, Vec<Placement>> {
+        self.frames.placements().all()
     }
 
     /// The loops in this robot's graph (its own accepted ones and those its peers accepted with it).

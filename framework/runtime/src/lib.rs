@@ -45,13 +45,13 @@ pub use fleet::Fleet;
 pub use frontend::{FrontEnd, FrontEndError, FrontEndFeed, FrontEndOutput, OdometryOutcome, ThreadFeed};
 pub use graph::HostGraph;
 pub use host::{
-    CloudServing, JoinedFrame, Localisation, LoopStanding, LoopStats, Plugins, RobotHost, ScanRecord,
-    StandingLoop,
+    CloudServing, JoinedFrame, Localisation, LoopStanding, LoopStats, Placement, Plugins, RobotHost,
+    ScanRecord, StandingLoop,
 };
 pub use localisation::LocalisationSummary;
 pub use loop_lines::{LOOP_CLASSES, PlacedLoop, loop_class_of_namespace, own_frame_loops};
 pub use map_clouds::{MAP_VOXEL_M, merged_map};
-pub use metrics::{AlignmentMetrics, RobotMetrics, RunMetrics, TrajectoryMetrics};
+pub use metrics::{AlignmentMetrics, PlacementRecord, RobotMetrics, RunMetrics, TrajectoryMetrics};
 pub use observer::{HostObserver, Observers};
 pub use outputs::{write_outputs, write_partial_outputs};
 pub use prior::{PRIOR_ROBOT_BASE, is_prior_robot};

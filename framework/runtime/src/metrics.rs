@@ -42,6 +42,19 @@ pub struct TrajectoryMetrics {
     pub rpe_rotation_deg: Option<ErrorStats>,
 }
 
+/// One stretch of time over which α placed β at one frame hypothesis.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlacementRecord {
+    /// Seconds of robot time from α's first scan.
+    pub from_s: f64,
+    /// `None` while it stands at the end.
+    pub until_s: Option<f64>,
+    /// The frame's error against the truth at the two robots' first poses
+    /// (`skid_eval::anchored_frame_error`), which carries the odometry's drift to where the frame
+    /// was found.
+    pub frame_error: TransformError,
+}
+
 /// The α/β metric for one robot β against α = robot 0.
 #[derive(Clone, Debug, Serialize)]
 pub struct AlignmentMetrics {
@@ -51,8 +64,17 @@ pub struct AlignmentMetrics {
     /// The robot through which α placed β, when α holds no loop with β.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub joined_via: Option<u32>,
-    /// Seconds of robot time from α's first scan to when α first placed β in its frame.
+    /// Seconds of robot time from α's first scan to when α first placed β in its frame (which may be
+    /// a placement withdrawn later: see `placements`).
     pub joined_after_s: Option<f64>,
+    /// Seconds of robot time from α's first scan to when the placement that stands at the end began:
+    /// the time to the merge the run ends with. `None` when β is not placed at the end.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub placed_since_s: Option<f64>,
+    /// Every placement of β in α's frame over the run, oldest first, each judged against the truth at
+    /// the two robots' first poses (a frame that jumped by more than 2 m or 5°, or a merge withdrawn,
+    /// ends one).
+    pub placements: Vec<PlacementRecord>,
     /// `T_β,APE = (T^GT_β)⁻¹ · T^GT_α · T^α_β`.
     pub beta_alignment_error: TransformError,
     /// β's frame in α's against the truth at the two robots' first poses: defined on straight routes,
@@ -301,16 +323,46 @@ fn alignment_metrics(fleet: &Fleet<'_>, beta_index: usize) -> Result<AlignmentMe
         .get(&beta.robot())
         .and_then(|joined| joined.via)
         .map(|via| via.0);
+    let alpha_start_nanos = alpha.scans().first().map(|scan| scan.stamp_nanos);
+    let since_start_s = |nanos: u64| alpha_start_nanos.map(|start| nanos.saturating_sub(start) as f64 * 1e-9);
     let joined_after_s = alpha
         .first_joined_nanos()
         .get(&beta.robot())
-        .zip(alpha.scans().first())
-        .map(|(&joined_nanos, first)| joined_nanos.saturating_sub(first.stamp_nanos) as f64 * 1e-9);
+        .and_then(|&joined_nanos| since_start_s(joined_nanos));
+    let history = alpha
+        .placements()
+        .get(&beta.robot())
+        .map(Vec::as_slice)
+        .unwrap_or_default();
+    let placed_since_s = history
+        .last()
+        .filter(|placement| placement.until_nanos.is_none())
+        .and_then(|placement| since_start_s(placement.since_nanos));
+    let placements = match (gt_alpha.first(), gt_beta.first()) {
+        (Some(gt_a), Some(gt_b)) => history
+            .iter()
+            .filter_map(|placement| {
+                Some(PlacementRecord {
+                    from_s: since_start_s(placement.since_nanos)?,
+                    until_s: placement.until_nanos.and_then(since_start_s),
+                    // The frame joins the first keyframes, whose estimates are each robot's origin.
+                    frame_error: skid_eval::anchored_frame_error(
+                        (gt_a, &Pose::identity()),
+                        (gt_b, &Pose::identity()),
+                        &placement.own_first_from_robot_first,
+                    ),
+                })
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
     Ok(AlignmentMetrics {
         alpha: alpha.robot().0,
         shared_keyframes,
         joined_via,
         joined_after_s,
+        placed_since_s,
+        placements,
         beta_alignment_percent_of_path: 100.0 * result.beta_alignment_error.translation_m / beta_path_m,
         beta_alignment_error: result.beta_alignment_error,
         anchored_frame_error,

@@ -567,6 +567,14 @@ fn a_robot_with_no_link_to_robot_0_joins_its_frame_through_a_third_robot() {
         alignment.beta_alignment_error
     );
     assert!(alignment.joined_after_s.is_some_and(|s| s > 0.0), "{alignment:?}");
+    // The placement the run ends with stands, and began no earlier than the first placement.
+    let standing = alignment.placements.last().expect("robot 1 was placed");
+    assert!(standing.until_s.is_none(), "{:?}", alignment.placements);
+    assert_eq!(alignment.placed_since_s, Some(standing.from_s));
+    assert!(
+        alignment.joined_after_s <= alignment.placed_since_s,
+        "{alignment:?}"
+    );
     assert_eq!(metrics.robots_in_alpha_frame, 2);
     clouds_crossed_each_link_once_and_the_budget_held(&fleet, &summary);
 }

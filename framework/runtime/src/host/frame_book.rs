@@ -15,6 +15,8 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use skid_core::{Pose, RobotId};
 
+use super::placements::PlacementHistory;
+
 /// A frame that moved less than this (translation) since it was last sent is not sent again.
 const RESEND_M: f64 = 0.25;
 /// A frame that turned less than this since it was last sent is not sent again.
@@ -50,9 +52,9 @@ pub(crate) struct FrameBook {
     /// those loops). They are never reported to peers: such a frame rests on loops between other robots,
     /// and a verifier that checked those robots' merge against it would confirm the merge by itself.
     through_fleet: BTreeMap<RobotId, (Pose, RobotId)>,
-    /// When each robot was first placed in this robot's frame (directly or through others), by the
-    /// host's clock; a robot that left and joined again keeps its first time.
-    first_joined_nanos: BTreeMap<RobotId, u64>,
+    /// Every placement of every robot in this robot's frame (directly or through others), by the
+    /// host's clock.
+    placements: PlacementHistory,
 }
 
 impl FrameBook {
@@ -106,16 +108,19 @@ impl FrameBook {
         self.reported.insert(from, frames);
     }
 
-    /// Notes the robots placed in `me`'s frame now that were never placed before.
+    /// Notes the robots placed in `me`'s frame now, and where.
     pub(crate) fn note_joined(&mut self, me: RobotId, now_nanos: u64) {
-        for robot in self.joined(me).into_keys() {
-            self.first_joined_nanos.entry(robot).or_insert(now_nanos);
-        }
+        let placed: BTreeMap<RobotId, Pose> = self
+            .joined(me)
+            .into_iter()
+            .map(|(robot, frame)| (robot, frame.own_first_from_robot_first))
+            .collect();
+        self.placements.note(&placed, now_nanos);
     }
 
-    /// When each robot was first placed in this robot's frame.
-    pub(crate) fn first_joined_nanos(&self) -> &BTreeMap<RobotId, u64> {
-        &self.first_joined_nanos
+    /// Every placement of every robot in this robot's frame over the run.
+    pub(crate) fn placements(&self) -> &PlacementHistory {
+        &self.placements
     }
 
     /// Every robot this robot (`me`) can place: those it merged with directly, those its back-end
