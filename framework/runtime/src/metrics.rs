@@ -325,15 +325,14 @@ fn alignment_metrics(fleet: &Fleet<'_>, beta_index: usize) -> Result<AlignmentMe
         .map(|via| via.0);
     let alpha_start_nanos = alpha.scans().first().map(|scan| scan.stamp_nanos);
     let since_start_s = |nanos: u64| alpha_start_nanos.map(|start| nanos.saturating_sub(start) as f64 * 1e-9);
-    let joined_after_s = alpha
-        .first_joined_nanos()
-        .get(&beta.robot())
-        .and_then(|&joined_nanos| since_start_s(joined_nanos));
     let history = alpha
         .placements()
         .get(&beta.robot())
         .map(Vec::as_slice)
         .unwrap_or_default();
+    let joined_after_s = history
+        .first()
+        .and_then(|placement| since_start_s(placement.since_nanos));
     let placed_since_s = history
         .last()
         .filter(|placement| placement.until_nanos.is_none())
