@@ -64,8 +64,9 @@ pub struct ReplayReport {
     pub total_s: f64,
     /// Every robot's work per event (the fleet's, summed).
     pub updates: UpdateTimes,
-    /// One robot's own work per event it took part in (each robot runs on its own computer).
-    pub robot_updates: UpdateTimes,
+    /// Per event, the work of the robot that spent the most on it: the update's latency, as each robot
+    /// runs on its own computer and they work at once.
+    pub slowest_robot_updates: UpdateTimes,
 }
 
 impl ReplayReport {
@@ -82,7 +83,7 @@ impl ReplayReport {
             inter,
             total_s: outcome.total_s,
             updates: update_times(&outcome.update_ms),
-            robot_updates: update_times(&outcome.robot_update_ms),
+            slowest_robot_updates: update_times(&outcome.slowest_robot_update_ms),
         }
     }
 

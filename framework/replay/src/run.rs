@@ -92,9 +92,9 @@ pub struct ReplayOutcome {
     pub loops: BTreeMap<LoopId, LoopFate>,
     /// Milliseconds of each update (batch: one, the whole solve): every robot's work for one event.
     pub update_ms: Vec<f64>,
-    /// Milliseconds of each robot's own share of each update it took part in (its verifiers and its
-    /// back-end; incremental mode): what one robot spends, as each runs on its own computer.
-    pub robot_update_ms: Vec<f64>,
+    /// Milliseconds of each update in the robot that spent the most on it (its verifiers and its
+    /// back-end; incremental mode): the update's latency, as each robot runs on its own computer.
+    pub slowest_robot_update_ms: Vec<f64>,
     /// Seconds in the plugins, all updates together.
     pub total_s: f64,
 }

@@ -74,10 +74,10 @@ fn report_text(report: &ReplayReport) -> String {
         report.updates.updates
     );
     if report.mode == "incremental" {
-        let own = &report.robot_updates;
+        let slowest = &report.slowest_robot_updates;
         text.push_str(&format!(
-            "  one robot's own share (its verifiers and back-end): median {:.2} ms, p95 {:.2} ms, max {:.1} ms over {}\n",
-            own.median_ms, own.p95_ms, own.max_ms, own.updates
+            "  the slowest robot's share (its verifiers and back-end; the robots work at once): median {:.2} ms, p95 {:.2} ms, max {:.1} ms over {}\n",
+            slowest.median_ms, slowest.p95_ms, slowest.max_ms, slowest.updates
         ));
     }
     let mut table = Table::new(&[

@@ -107,7 +107,7 @@ pub(super) fn batch(
         graphs: vec![snapshot],
         loops: fates,
         update_ms: vec![total_s * 1e3],
-        robot_update_ms: vec![total_s * 1e3],
+        slowest_robot_update_ms: vec![total_s * 1e3],
         total_s,
     })
 }

@@ -27,7 +27,7 @@ pub(super) fn incremental(
     let mut fates: BTreeMap<LoopId, LoopFate> = BTreeMap::new();
     let mut closures: BTreeMap<LoopId, LoopClosure> = BTreeMap::new();
     let mut update_ms = Vec::with_capacity(problem.events.len());
-    let mut robot_update_ms = Vec::with_capacity(problem.events.len());
+    let mut slowest_robot_update_ms = Vec::with_capacity(problem.events.len());
     for event in &problem.events {
         let robot = event.robot;
         let fail = |error| plugin_error(robot, error);
@@ -88,7 +88,8 @@ pub(super) fn incremental(
             optimize_changed(&mut robots.graphs, &known, budget, &mut robot_ms).map_err(fail)?;
         }
         update_ms.push(started.elapsed().as_secs_f64() * 1e3);
-        robot_update_ms.extend(robot_ms.into_iter().flatten());
+        // The robots work on their own computers at once: the update is done when the slowest is.
+        slowest_robot_update_ms.push(robot_ms.into_iter().flatten().fold(0.0, f64::max));
     }
     let graphs = robots.graphs;
     weigh(&mut fates, &graphs);
@@ -105,7 +106,7 @@ pub(super) fn incremental(
         loops: fates,
         total_s: update_ms.iter().sum::<f64>() * 1e-3,
         update_ms,
-        robot_update_ms,
+        slowest_robot_update_ms,
     })
 }
 
