@@ -95,7 +95,10 @@ fn both_modes_replay_a_real_problem_and_account_for_every_loop() {
         // One latency per update: the slowest robot's share, which the robots' work summed bounds.
         assert_eq!(outcome.slowest_robot_update_ms.len(), outcome.update_ms.len());
         for (slowest_ms, summed_ms) in outcome.slowest_robot_update_ms.iter().zip(&outcome.update_ms) {
-            assert!(*slowest_ms >= 0.0 && slowest_ms <= summed_ms, "{slowest_ms} ms of {summed_ms} ms");
+            assert!(
+                *slowest_ms >= 0.0 && slowest_ms <= summed_ms,
+                "{slowest_ms} ms of {summed_ms} ms"
+            );
         }
         let report = ReplayReport::new(&problem, &outcome);
         check(&report, &problem);
