@@ -71,6 +71,12 @@ pub fn rotation_angle_rad(pose: &Pose) -> f64 {
     pose.rotation.angle()
 }
 
+/// True when `now` lies farther than `metres` or turns farther than `radians` from `before`.
+pub fn moved_beyond(before: &Pose, now: &Pose, metres: f64, radians: f64) -> bool {
+    let change = before.inverse() * now;
+    change.translation.vector.norm() > metres || change.rotation.angle() > radians
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,6 +9,7 @@
 
 use std::collections::BTreeMap;
 
+use skid_core::pose::moved_beyond;
 use skid_core::slots::{GraphView, LoopClosure, RelativePose};
 use skid_core::{KeyframeId, Pose, RobotId};
 use skid_geometry::OdometryChains;
@@ -57,11 +58,8 @@ pub(crate) fn worth_reporting(last: Option<&BTreeMap<RobotId, Pose>>, now: &BTre
     };
     last.len() != now.len()
         || now.iter().any(|(robot, pose)| {
-            last.get(robot).is_none_or(|before| {
-                let change = before.inverse() * pose;
-                change.translation.vector.norm() > REPORT_AGAIN_M
-                    || change.rotation.angle() > REPORT_AGAIN_RAD
-            })
+            last.get(robot)
+                .is_none_or(|before| moved_beyond(before, pose, REPORT_AGAIN_M, REPORT_AGAIN_RAD))
         })
 }
 

@@ -85,10 +85,9 @@ impl FrameBook {
     /// moved); they count as sent.
     pub(crate) fn take_due(&mut self) -> Option<Vec<(RobotId, Pose, u32)>> {
         let moved = |robot: &RobotId, pose: &Pose| {
-            self.sent.get(robot).is_none_or(|last| {
-                let change = last.inverse() * pose;
-                change.translation.vector.norm() > RESEND_M || change.rotation.angle() > RESEND_RAD
-            })
+            self.sent
+                .get(robot)
+                .is_none_or(|last| skid_core::pose::moved_beyond(last, pose, RESEND_M, RESEND_RAD))
         };
         let changed =
             self.own.len() != self.sent.len() || self.own.iter().any(|(robot, (pose, _))| moved(robot, pose));

@@ -75,9 +75,7 @@ impl PlacementHistory {
 }
 
 fn jumped(before: &Pose, now: &Pose) -> bool {
-    let change = before.inverse() * now;
-    change.translation.vector.norm() > PLACEMENT_JUMP_M
-        || change.rotation.angle() > PLACEMENT_JUMP_DEG.to_radians()
+    skid_core::pose::moved_beyond(before, now, PLACEMENT_JUMP_M, PLACEMENT_JUMP_DEG.to_radians())
 }
 
 #[cfg(test)]
