@@ -156,6 +156,12 @@ pub fn planar_pose(x: f64, y: f64, z: f64, yaw_rad: f64) -> Pose {
     Pose::new(Vector3::new(x, y, z), Vector3::new(0.0, 0.0, yaw_rad))
 }
 
+/// A pose `x_m` along the x axis, turned `yaw_deg` degrees about z: the frames of tests that place one
+/// robot in another's.
+pub fn x_yaw_pose(x_m: f64, yaw_deg: f64) -> Pose {
+    planar_pose(x_m, 0.0, 0.0, yaw_deg.to_radians())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

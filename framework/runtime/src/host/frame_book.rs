@@ -166,9 +166,7 @@ impl FrameBook {
             for (robot, found) in chains {
                 let (via, pose) = found[0];
                 let agree = found.iter().all(|(_, other)| {
-                    let apart = pose.inverse() * other;
-                    apart.translation.vector.norm() <= JOIN_DISAGREEMENT_M
-                        && apart.rotation.angle() <= JOIN_DISAGREEMENT_RAD
+                    !skid_core::pose::moved_beyond(&pose, other, JOIN_DISAGREEMENT_M, JOIN_DISAGREEMENT_RAD)
                 });
                 if agree {
                     let frame = JoinedFrame {
@@ -216,10 +214,7 @@ impl FrameBook {
 mod tests {
     use super::*;
     use nalgebra::Vector3;
-
-    fn pose(x: f64, yaw_deg: f64) -> Pose {
-        Pose::new(Vector3::new(x, 0.0, 0.0), Vector3::z() * yaw_deg.to_radians())
-    }
+    use skid_testkit::scene::x_yaw_pose as pose;
 
     #[test]
     fn frames_compose_through_a_third_robot_and_are_sent_on_change() {

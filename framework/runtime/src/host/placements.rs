@@ -81,11 +81,7 @@ fn jumped(before: &Pose, now: &Pose) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Vector3;
-
-    fn pose(x: f64, yaw_deg: f64) -> Pose {
-        Pose::new(Vector3::new(x, 0.0, 0.0), Vector3::z() * yaw_deg.to_radians())
-    }
+    use skid_testkit::scene::x_yaw_pose as pose;
 
     #[test]
     fn a_withdrawn_or_overturned_placement_stays_on_record() {
