@@ -91,6 +91,19 @@ mod tests {
     }
 
     #[test]
+    fn moved_beyond_compares_the_relative_pose_with_both_bounds() {
+        let before = Pose::new(Vector3::new(10.0, 0.0, 0.0), Vector3::z() * 90f64.to_radians());
+        // 0.5 m along the turned x axis, i.e. along the world's y axis.
+        let near = before * Pose::new(Vector3::new(0.5, 0.0, 0.0), Vector3::zeros());
+        assert!(!moved_beyond(&before, &near, 1.0, 0.1));
+        assert!(moved_beyond(&before, &near, 0.4, 0.1));
+        let turned = before * Pose::new(Vector3::zeros(), Vector3::z() * 0.2);
+        assert!(!moved_beyond(&before, &turned, 1.0, 0.3));
+        assert!(moved_beyond(&before, &turned, 1.0, 0.1));
+        assert!(!moved_beyond(&before, &before, 1e-9, 1e-9));
+    }
+
+    #[test]
     fn invalid_wire_poses_are_refused() {
         let nan = PoseWire {
             translation_m: [f64::NAN, 0.0, 0.0],

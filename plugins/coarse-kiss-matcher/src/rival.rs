@@ -73,7 +73,5 @@ pub fn unexplained(
 
 /// True when two alignments differ by more than the same-alignment tolerances.
 pub fn distinct(a: &Pose, b: &Pose) -> bool {
-    let difference = a.inverse() * b;
-    difference.translation.vector.norm() > DISTINCT_TRANSLATION_M
-        || difference.rotation.angle() > DISTINCT_ROTATION_RAD
+    skid_core::pose::moved_beyond(a, b, DISTINCT_TRANSLATION_M, DISTINCT_ROTATION_RAD)
 }
