@@ -123,6 +123,8 @@ pub struct MergeRow {
     /// Inter-robot loops accepted in the run, and candidates refused as ambiguous by every robot.
     pub inter_robot_loops: usize,
     pub coarse_ambiguous: usize,
+    /// Loops in the robots' graphs at the end more than 2 m or 5° from the truth, over every graph.
+    pub false_loops_in_graphs: usize,
     pub run_wall_s: f64,
 }
 
@@ -233,6 +235,7 @@ pub fn run_one(
                 outcome,
                 inter_robot_loops: metrics.inter_robot_loops_accepted,
                 coarse_ambiguous,
+                false_loops_in_graphs: metrics.false_loops_in_graphs,
                 run_wall_s: summary.wall_s,
             }
         })

@@ -43,6 +43,8 @@ pub struct FleetRow {
     pub sent_bytes_per_robot_min: BTreeMap<String, f64>,
     pub inter_robot_loops: usize,
     pub intra_robot_loops: usize,
+    /// False loops over every robot's graph (`RunMetrics::false_loops_in_graphs`).
+    pub false_loops_in_graphs: usize,
     pub ate_alpha_m: Option<f64>,
     /// The α/β metric over every robot β that α placed.
     pub ate_beta_mean_m: Option<f64>,
@@ -116,6 +118,7 @@ pub fn fleet_row(run: &ScaleRun) -> FleetRow {
         sent_bytes_per_robot_min,
         inter_robot_loops: run.metrics.inter_robot_loops_accepted,
         intra_robot_loops: robots.iter().map(|r| r.loops.accepted_intra).sum(),
+        false_loops_in_graphs: run.metrics.false_loops_in_graphs,
         ate_alpha_m: run
             .metrics
             .robots
@@ -200,7 +203,7 @@ pub fn fleet_markdown(rows: &[FleetRow], out: &Path) -> Result<String> {
         "backend ms¹",
         "peak MB",
         "KB/robot/min (descr, chain, cloud)",
-        "loops inter/intra",
+        "loops inter/intra (false³)",
         "ATE α m",
         "α/β mean / max m",
         "in α's frame (false²)",
@@ -239,7 +242,10 @@ pub fn fleet_markdown(rows: &[FleetRow], out: &Path) -> Result<String> {
                     kb(row, "odom_chain"),
                     kb(row, "cloud")
                 ),
-                format!("{} / {}", row.inter_robot_loops, row.intra_robot_loops),
+                format!(
+                    "{} / {} ({})",
+                    row.inter_robot_loops, row.intra_robot_loops, row.false_loops_in_graphs
+                ),
                 cell(row.ate_alpha_m, 3),
                 format!(
                     "{} / {} ({} placed)",
@@ -268,7 +274,9 @@ pub fn fleet_markdown(rows: &[FleetRow], out: &Path) -> Result<String> {
         "\n¹ Per robot-scan, as the hosts clock each stage (wall time inside the stage; with the `threads` \
          executor the robots' front-ends share the machine's cores, so a stage's time includes waiting for \
          one). The CPU column is the process's own CPU time (every thread) per robot-scan.\n\
-         ² Placed more than 2 m or 5° from the truth: a false merge.\n",
+         ² Placed more than 2 m or 5° from the truth: a false merge.\n\
+         ³ Loops in the robots' graphs at the end more than 2 m or 5° from the keyframes' true relative pose, \
+         over every graph (a loop two graphs hold counts twice).\n",
     );
     let per_n = |value: &dyn Fn(&FleetRow) -> f64| -> Vec<(f64, f64)> {
         rows.iter().map(|row| (row.robots as f64, value(row))).collect()

@@ -23,6 +23,7 @@ use skid_eval::{
 };
 
 use crate::host::{LoopStats, RobotHost};
+use crate::loop_truth::{LoopTruth, keyframe_truths, loop_truth};
 
 /// Absolute errors of one robot's trajectory after its own SE(3) alignment.
 #[derive(Clone, Debug, Serialize)]
@@ -106,6 +107,8 @@ pub struct RobotMetrics {
     pub alignment: Option<AlignmentMetrics>,
     pub alignment_unavailable: Option<String>,
     pub loops: LoopStats,
+    /// The loops this robot's graph holds at the end, judged against the ground truth.
+    pub loops_against_truth: LoopTruth,
     pub bytes_sent_by_kind: BTreeMap<String, u64>,
     pub bytes_sent_total: u64,
 }
@@ -122,6 +125,9 @@ pub struct RunMetrics {
     /// Loops (intra- and inter-robot) the verifiers refused or retracted, and those still undecided.
     pub loops_rejected: usize,
     pub loops_undecided: usize,
+    /// False loops (past 2 m or 5° from the truth) over every robot's graph; a loop two graphs hold
+    /// counts in each.
+    pub false_loops_in_graphs: usize,
     pub bytes_sent_total: u64,
     /// Robots other than α that α placed in its frame (directly or through others).
     pub robots_in_alpha_frame: usize,
@@ -372,7 +378,7 @@ fn alignment_metrics(fleet: &Fleet<'_>, beta_index: usize) -> Result<AlignmentMe
     })
 }
 
-fn robot_metrics(fleet: &Fleet<'_>, index: usize) -> RobotMetrics {
+fn robot_metrics(fleet: &Fleet<'_>, truths: &BTreeMap<KeyframeId, Pose>, index: usize) -> RobotMetrics {
     let host = &fleet.robots[index];
     let (truth, estimate) = &fleet.tracks[index];
     let trajectory = if truth.len() >= 3 {
@@ -403,6 +409,7 @@ fn robot_metrics(fleet: &Fleet<'_>, index: usize) -> RobotMetrics {
         alignment,
         alignment_unavailable,
         loops: host.loop_stats(),
+        loops_against_truth: loop_truth(host, truths),
         bytes_sent_total: counters.sent_total.bytes,
         bytes_sent_by_kind,
     }
@@ -417,8 +424,9 @@ impl RunMetrics {
     /// [`RunMetrics::of`] with the frames of [`alpha_frames`] already computed.
     pub fn with_frames(name: &str, robots: &[RobotHost], frames: &[Result<(Pose, usize), String>]) -> Self {
         let fleet = Fleet::new(robots, frames);
+        let truths = keyframe_truths(robots);
         let robots_metrics: Vec<RobotMetrics> = (0..robots.len().min(frames.len()))
-            .map(|index| robot_metrics(&fleet, index))
+            .map(|index| robot_metrics(&fleet, &truths, index))
             .collect();
         let cloud_bytes: u64 = robots_metrics
             .iter()
@@ -433,6 +441,10 @@ impl RunMetrics {
             inter_robot_loops_accepted: robots_metrics.iter().map(|r| r.loops.accepted_inter).sum(),
             loops_rejected: robots_metrics.iter().map(|r| r.loops.rejected).sum(),
             loops_undecided: robots_metrics.iter().map(|r| r.loops.undecided).sum(),
+            false_loops_in_graphs: robots_metrics
+                .iter()
+                .map(|r| r.loops_against_truth.false_loops)
+                .sum(),
             bytes_sent_total: robots_metrics.iter().map(|r| r.bytes_sent_total).sum(),
             robots: robots_metrics,
         }

@@ -14,7 +14,7 @@ fn main() -> anyhow::Result<()> {
                 for variant in &settings.variants {
                     for row in run_one(settings, world, seed, variant, &registry, out)? {
                         eprintln!(
-                            "{world} seed {seed} {} (β = robot {}): {} ({:?} m, {:?}° by {}; T_β,APE {:?} m, {:?}°), first placed at {:?} s, standing from {:?} s, {} loops, {:.0} s",
+                            "{world} seed {seed} {} (β = robot {}): {} ({:?} m, {:?}° by {}; T_β,APE {:?} m, {:?}°), first placed at {:?} s, standing from {:?} s, {} loops ({} false in the graphs), {:.0} s",
                             variant.name,
                             row.beta_robot,
                             row.outcome,
@@ -26,6 +26,7 @@ fn main() -> anyhow::Result<()> {
                             row.joined_after_s,
                             row.placed_since_s,
                             row.inter_robot_loops,
+                            row.false_loops_in_graphs,
                             row.run_wall_s
                         );
                         report.push(&row)?;

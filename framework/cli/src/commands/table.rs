@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use skid_runtime::{RunMetrics, RunSummary};
+use skid_runtime::{FALSE_LOOP_DEG, FALSE_LOOP_M, LoopTruth, RunMetrics, RunSummary};
 
 /// Prints a human summary on stderr, unless the log is quiet (`-q`, or `RUST_LOG` below info).
 pub fn show(text: &str) {
@@ -161,6 +161,26 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
             metrics
                 .cloud_bytes_per_inter_loop
                 .map_or_else(|| "-".to_owned(), |bytes| human_bytes(bytes as u64)),
+        );
+    }
+    let checked: usize = metrics.robots.iter().map(|r| r.loops_against_truth.checked).sum();
+    if checked > 0 {
+        let worst = |of: fn(&LoopTruth) -> f64| {
+            metrics
+                .robots
+                .iter()
+                .map(|r| of(&r.loops_against_truth))
+                .fold(0.0, f64::max)
+        };
+        let _ = writeln!(
+            text,
+            "  against the ground truth: {} false loops (past {} m or {}°) in the graphs' {} loops, worst {:.2} m / {:.2}°",
+            metrics.false_loops_in_graphs,
+            FALSE_LOOP_M,
+            FALSE_LOOP_DEG,
+            checked,
+            worst(|truth| truth.worst_error_m),
+            worst(|truth| truth.worst_error_deg),
         );
     }
     if let Some(network) = &summary.network {
