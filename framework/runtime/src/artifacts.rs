@@ -14,7 +14,7 @@ use crate::error::{RuntimeError, output_error};
 use crate::host::RobotHost;
 use crate::map_clouds::RobotClouds;
 use crate::metrics::alpha_frames;
-use crate::settings::{information_from_covariance, loop_information};
+use crate::settings::information_from_covariance;
 
 /// g2o vertex id of a keyframe: the robot in the millions, so ids stay readable.
 pub fn g2o_vertex_id(id: KeyframeId) -> u64 {
@@ -87,7 +87,7 @@ pub fn pose_graph(robot: &RobotHost) -> PoseGraph<Pose> {
             from: g2o_vertex_id(closure.target),
             to: g2o_vertex_id(closure.source),
             from_from_to: closure.target_from_source,
-            information: loop_information(),
+            information: closure.information,
         });
     }
     if let Some(&first) = keyframes.first() {

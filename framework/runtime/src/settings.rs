@@ -27,14 +27,15 @@ pub fn information_from_covariance(covariance: &Information) -> Information {
     })
 }
 
-/// Information of an accepted loop: σ 0.1 m and 1° per axis. Registration Hessians sum over thousands of
-/// points and would make loops far more certain than the odometry; a fixed, honest value is what
-/// multi-robot systems commonly use.
-pub fn loop_information() -> Information {
+/// Information of an accepted loop: `[loops] loop_sigma_m` and `loop_sigma_rotation_deg` per axis
+/// (see there why a fixed value rather than the registration's Hessian).
+pub fn loop_information(loops: &LoopsSection) -> Information {
+    let sigma_m = loops.loop_sigma_m.max(1e-6);
+    let sigma_rad = loops.loop_sigma_rotation_deg.to_radians().max(1e-9);
     let mut information = Information::zeros();
     for axis in 0..3 {
-        information[(axis, axis)] = 1.0 / (0.1 * 0.1);
-        information[(axis + 3, axis + 3)] = 1.0 / 1f64.to_radians().powi(2);
+        information[(axis, axis)] = 1.0 / (sigma_m * sigma_m);
+        information[(axis + 3, axis + 3)] = 1.0 / (sigma_rad * sigma_rad);
     }
     information
 }

@@ -99,7 +99,9 @@ impl RobotHost {
             }
             false => guess,
         };
-        let closure = self.loops.new_loop(pair, target_from_source, loop_information());
+        let closure = self
+            .loops
+            .new_loop(pair, target_from_source, loop_information(&config.loops));
         tracing::debug!(robot = %self.robot, id = ?closure.id, target = %candidate.target, source = %candidate.source, translation_m = ?target_from_source.translation.vector.as_slice(), "loop candidate: registered");
         if !self.odometry_places(&closure) {
             // The peer's odometry for its keyframe has not arrived (lost on the link, or late): the
