@@ -26,10 +26,7 @@ use skid_core::Registry;
 
 use crate::slam::build_fleet;
 
-/// A frame further than this from the truth is a false merge.
-pub const FALSE_MERGE_M: f64 = 2.0;
-/// A frame turned further than this from the truth is a false merge.
-pub const FALSE_MERGE_DEG: f64 = 5.0;
+pub use skid_runtime::{FALSE_MERGE_DEG, FALSE_MERGE_M};
 
 /// One rule set under comparison: a label and its `--set`-style overrides.
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -7,6 +7,7 @@ use anyhow::Result;
 use serde::Serialize;
 use serde_json::Value;
 use skid_eval::plot::{PlotOptions, Series, line_plot};
+use skid_runtime::{FALSE_MERGE_DEG, FALSE_MERGE_M};
 
 use crate::report::markdown_table;
 use crate::scale::{ScaleRun, window};
@@ -60,10 +61,6 @@ pub struct FleetRow {
     /// Keyframe-cloud bytes sent per accepted inter-robot loop.
     pub cloud_bytes_per_inter_loop: Option<f64>,
 }
-
-/// A false merge: a robot placed more than 2 m or 5° from the truth.
-pub const FALSE_MERGE_M: f64 = 2.0;
-pub const FALSE_MERGE_DEG: f64 = 5.0;
 
 /// The fleet row of a finished run.
 pub fn fleet_row(run: &ScaleRun) -> FleetRow {

@@ -51,7 +51,7 @@ pub use host::{
 };
 pub use localisation::LocalisationSummary;
 pub use loop_lines::{LOOP_CLASSES, PlacedLoop, loop_class_of_namespace, own_frame_loops};
-pub use loop_truth::{FALSE_LOOP_DEG, FALSE_LOOP_M, FalseLoop, LoopTruth};
+pub use loop_truth::{FALSE_MERGE_DEG, FALSE_MERGE_M, FalseLoop, LoopTruth};
 pub use map_clouds::{MAP_VOXEL_M, merged_map};
 pub use metrics::{AlignmentMetrics, PlacementRecord, RobotMetrics, RunMetrics, TrajectoryMetrics};
 pub use observer::{HostObserver, Observers};

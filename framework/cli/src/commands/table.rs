@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use skid_runtime::{FALSE_LOOP_DEG, FALSE_LOOP_M, LoopTruth, RunMetrics, RunSummary};
+use skid_runtime::{FALSE_MERGE_DEG, FALSE_MERGE_M, LoopTruth, RunMetrics, RunSummary};
 
 /// Prints a human summary on stderr, unless the log is quiet (`-q`, or `RUST_LOG` below info).
 pub fn show(text: &str) {
@@ -176,8 +176,8 @@ pub fn run_table(summary: &RunSummary, metrics: &RunMetrics, folder: &std::path:
             text,
             "  against the ground truth: {} false loops (past {} m or {}°) in the graphs' {} loops, worst {:.2} m / {:.2}°",
             metrics.false_loops_in_graphs,
-            FALSE_LOOP_M,
-            FALSE_LOOP_DEG,
+            FALSE_MERGE_M,
+            FALSE_MERGE_DEG,
             checked,
             worst(|truth| truth.worst_error_m),
             worst(|truth| truth.worst_error_deg),
