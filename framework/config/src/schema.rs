@@ -71,8 +71,9 @@ pub struct DeploySection {
     /// Single-robot mode: how fast scans are played relative to their stamps (1 = real time, 2 = twice
     /// as fast); 0 plays them as fast as the robot can process them.
     pub playback_speed: f64,
-    /// Single-robot mode: seconds the robot keeps answering its peers after its source has ended, so
-    /// their late cloud requests and loops still get through.
+    /// Single-robot mode: the longest the robot keeps answering its peers after its source has ended, in
+    /// seconds, so their late cloud requests and loops still get through; it stops sooner once every
+    /// robot of the fleet says in its heartbeat that it is settled (source ended, nothing waited for).
     pub linger_s: f64,
 }
 

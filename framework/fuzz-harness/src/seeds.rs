@@ -54,6 +54,7 @@ fn messages() -> Vec<Message> {
             serves_clouds: true,
             max_message_bytes: 4 << 20,
         },
+        settled: false,
     };
     let values = [0.1f32, 0.4, 0.9, 0.0, 0.3, 0.3, 0.7, 1.0];
     let finite: Vec<Point> = points().into_iter().filter(|p| p.x.is_finite()).collect();

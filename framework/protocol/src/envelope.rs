@@ -12,16 +12,17 @@ use skid_core::RobotId;
 
 use crate::messages::{
     CloudMsg, CloudRequest, DescriptorBatch, Frames, InvalidMessage, Loops, Message, MessageKind, OdomChain,
-    PeerStatus,
+    PeerStatus, PeerStatusV2,
 };
 
 /// The four bytes every SKiD message starts with.
 pub const MAGIC: [u8; 4] = *b"SKiD";
 
 /// The protocol version this build writes.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 
-/// The oldest protocol version this build reads.
+/// The oldest protocol version this build reads (version 2 differs only in `Hello` and `Heartbeat`,
+/// whose status had no `settled`).
 pub const MIN_SUPPORTED_VERSION: u16 = 2;
 
 /// Upper bound of an encoded envelope header: magic plus the varints of its fields.
@@ -275,7 +276,8 @@ pub fn decode_envelope<'a>(
 pub fn decode(bytes: &[u8], config: &ProtocolConfig) -> Result<(Envelope, Message), DecodeError> {
     let (envelope, payload) = decode_envelope(bytes, config)?;
     let kind = envelope.kind;
-    let message = decode_payload(kind, payload).map_err(|source| DecodeError::Payload { kind, source })?;
+    let message = decode_payload(kind, envelope.version, payload)
+        .map_err(|source| DecodeError::Payload { kind, source })?;
     message
         .validate()
         .map_err(|source| DecodeError::Invalid { kind, source })?;
@@ -290,7 +292,7 @@ pub fn decode(bytes: &[u8], config: &ProtocolConfig) -> Result<(Envelope, Messag
     Ok((envelope, message))
 }
 
-fn decode_payload(kind: MessageKind, payload: &[u8]) -> Result<Message, postcard::Error> {
+fn decode_payload(kind: MessageKind, version: u16, payload: &[u8]) -> Result<Message, postcard::Error> {
     fn exact<'a, T: Deserialize<'a>>(payload: &'a [u8]) -> Result<T, postcard::Error> {
         let (value, rest) = postcard::take_from_bytes::<T>(payload)?;
         if rest.is_empty() {
@@ -299,9 +301,16 @@ fn decode_payload(kind: MessageKind, payload: &[u8]) -> Result<Message, postcard
             Err(postcard::Error::DeserializeBadEncoding)
         }
     }
+    let status = |payload: &[u8]| -> Result<PeerStatus, postcard::Error> {
+        if version == 2 {
+            exact::<PeerStatusV2>(payload).map(PeerStatus::from)
+        } else {
+            exact::<PeerStatus>(payload)
+        }
+    };
     Ok(match kind {
-        MessageKind::Hello => Message::Hello(exact::<PeerStatus>(payload)?),
-        MessageKind::Heartbeat => Message::Heartbeat(exact::<PeerStatus>(payload)?),
+        MessageKind::Hello => Message::Hello(status(payload)?),
+        MessageKind::Heartbeat => Message::Heartbeat(status(payload)?),
         MessageKind::Descriptors => Message::Descriptors(exact::<DescriptorBatch>(payload)?),
         MessageKind::CloudRequest => Message::CloudRequest(exact::<CloudRequest>(payload)?),
         MessageKind::Cloud => Message::Cloud(exact::<CloudMsg>(payload)?),

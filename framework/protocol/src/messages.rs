@@ -92,6 +92,30 @@ pub struct PeerStatus {
     /// Index of the newest keyframe, `None` before the first one.
     pub latest_keyframe: Option<u32>,
     pub capabilities: Capabilities,
+    /// The robot's source has ended and it waits for nothing from its peers (no candidate queued, no
+    /// cloud asked for): unless a peer's new descriptors raise candidates, it will ask for nothing more.
+    /// Robots that linger after their source ends stop once every robot of the fleet says so (protocol
+    /// version 3; a version-2 status reads as not settled).
+    pub settled: bool,
+}
+
+/// The body of `Hello` and `Heartbeat` in protocol version 2, which had no `settled`.
+#[derive(Deserialize)]
+pub(crate) struct PeerStatusV2 {
+    robot: RobotId,
+    latest_keyframe: Option<u32>,
+    capabilities: Capabilities,
+}
+
+impl From<PeerStatusV2> for PeerStatus {
+    fn from(old: PeerStatusV2) -> Self {
+        Self {
+            robot: old.robot,
+            latest_keyframe: old.latest_keyframe,
+            capabilities: old.capabilities,
+            settled: false,
+        }
+    }
 }
 
 /// One keyframe's descriptor.

@@ -18,6 +18,7 @@ fn sample_messages(robot: u32) -> Vec<Message> {
             serves_clouds: true,
             max_message_bytes: 4 << 20,
         },
+        settled: false,
     };
     let values: Vec<f32> = (0..100).map(|i| (i as f32 * 0.37).sin().abs()).collect();
     let pose = Pose::new(Vector3::new(1.0, 2.0, -0.5), Vector3::new(0.0, 0.1, 1.2));
@@ -179,6 +180,44 @@ fn a_lying_length_is_refused_without_decoding() {
     assert!(matches!(
         decode(&unknown, &config),
         Err(DecodeError::UnknownKind(42))
+    ));
+}
+
+#[test]
+fn a_version_2_status_reads_as_not_settled_and_a_version_3_one_as_sent() {
+    let config = ProtocolConfig::default();
+    let Message::Hello(status) = sample_messages(0)[0].clone() else {
+        unreachable!()
+    };
+    let settled = PeerStatus {
+        settled: true,
+        ..status.clone()
+    };
+    let bytes = encode(&Message::Hello(settled.clone()), RobotId(0), 1, 0, &config).unwrap();
+    assert_eq!(decode(&bytes, &config).unwrap().1, Message::Hello(settled));
+    // Version 2's status is version 3's without the last field: the same header (robot 0, session 1,
+    // sequence 0, kind 1, a one-byte length) and the payload without its `settled` byte.
+    let header_len = 4 + 5 + 1;
+    assert!(bytes.len() - header_len < 128, "the length is a one-byte varint");
+    let payload = &bytes[header_len..bytes.len() - 1];
+    let mut old = b"SKiD".to_vec();
+    old.extend_from_slice(&[2, 0, 1, 0, MessageKind::Hello.code(), payload.len() as u8]);
+    old.extend_from_slice(payload);
+    let (envelope, message) = decode(&old, &config).unwrap();
+    assert_eq!(envelope.version, 2);
+    assert_eq!(
+        message,
+        Message::Hello(PeerStatus {
+            settled: false,
+            ..status
+        })
+    );
+    // A version-3 status without the byte is truncated, not read as version 2.
+    let mut short = old.clone();
+    short[4] = 3;
+    assert!(matches!(
+        decode(&short, &config),
+        Err(DecodeError::Payload { .. })
     ));
 }
 

@@ -11,8 +11,11 @@
 //!   joiner or a restarted process; see the `catchup` module), and drops the repeats it receives itself;
 //! - re-sends cloud requests that stay unanswered for [`CLOUD_RETRY_PERIOD`] (lost, or the peer was
 //!   down), doubling the wait with each retry;
-//! - keeps answering for `deploy.linger_s` after its source ends, so its peers' late requests succeed.
+//! - keeps answering for up to `deploy.linger_s` after its source ends, so its peers' late requests
+//!   succeed; it stops sooner once every robot of the fleet has said in its heartbeat that it is
+//!   settled (its source ended, nothing waited for) for [`SETTLED_GRACE`] without a break.
 
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use skid_config::ResolvedConfig;
@@ -31,6 +34,9 @@ use crate::summary::RunSummary;
 
 /// How often an idle robot says it is alive.
 pub const HEARTBEAT_PERIOD: Duration = Duration::from_secs(1);
+/// How long every robot of the fleet must have said it is settled before a lingering robot stops: a few
+/// heartbeats, so a status sent just before the last descriptors arrived does not end the run.
+pub const SETTLED_GRACE: Duration = Duration::from_secs(3);
 /// Longest sleep between transport polls while waiting for the next scan.
 const POLL_SLEEP: Duration = Duration::from_millis(5);
 
@@ -49,6 +55,10 @@ pub struct SingleRobot {
     /// A fleet holding only this robot, so the run's outputs are written as for any fleet.
     fleet: Fleet,
     catch_up: CatchUp,
+    /// Whether each peer's latest `Hello` or `Heartbeat` said it is settled.
+    peers_settled: BTreeMap<RobotId, bool>,
+    /// This robot's source has ended (it lingers).
+    source_ended: bool,
 }
 
 impl SingleRobot {
@@ -88,6 +98,8 @@ impl SingleRobot {
                 prior,
             },
             catch_up: CatchUp::default(),
+            peers_settled: BTreeMap::new(),
+            source_ended: false,
         })
     }
 
@@ -101,8 +113,9 @@ impl SingleRobot {
         &mut self.fleet
     }
 
-    /// Runs until the source ends (or `run.max_scans`), then lingers for `deploy.linger_s` answering
-    /// peers; calls `progress(scans_done)` after each scan.
+    /// Runs until the source ends (or `run.max_scans`), then lingers for up to `deploy.linger_s`
+    /// answering peers (less once the whole fleet is settled); calls `progress(scans_done)` after each
+    /// scan.
     pub fn run(&mut self, mut progress: impl FnMut(usize)) -> Result<RunSummary, RuntimeError> {
         let started = Instant::now();
         let speed = self.fleet.config.deploy.playback_speed;
@@ -111,6 +124,7 @@ impl SingleRobot {
         let mut first: Option<(Instant, u64)> = None;
         let mut linger_until = None;
         let mut next_heartbeat = started;
+        let mut fleet_settled_since: Option<Instant> = None;
         crate::run_folder::begin(&self.fleet.config)?;
         self.say(Message::Hello(self.status()));
         loop {
@@ -121,6 +135,7 @@ impl SingleRobot {
                     let (finished, stamp) = self.step()?;
                     progress(self.robot().scans().len());
                     if finished {
+                        self.source_ended = true;
                         tracing::info!(robot = %self.robot().robot(), linger_s = linger.as_secs_f64(), "source ended; answering peers");
                         *linger_until.insert(Instant::now() + linger)
                     } else {
@@ -145,6 +160,15 @@ impl SingleRobot {
                 let now = Instant::now();
                 if now >= deadline {
                     break;
+                }
+                if self.fleet_settled() {
+                    let since = *fleet_settled_since.get_or_insert(now);
+                    if now - since >= SETTLED_GRACE {
+                        tracing::info!(robot = %self.robot().robot(), "every robot of the fleet is settled; ending the linger");
+                        break;
+                    }
+                } else {
+                    fleet_settled_since = None;
                 }
                 std::thread::sleep((deadline - now).min(POLL_SLEEP));
             }
@@ -186,6 +210,7 @@ impl SingleRobot {
         let config = &self.fleet.config;
         let robot = &mut self.fleet.robots[0];
         let catch_up = &mut self.catch_up;
+        let peers_settled = &mut self.peers_settled;
         let mut new_sessions = Vec::new();
         deliver_filtered(robot, config, |received| {
             if let Arrival::First { restarted } = received.arrival {
@@ -194,6 +219,10 @@ impl SingleRobot {
             }
             match &mut received.message {
                 Message::Descriptors(batch) => catch_up.keep_new_descriptors(batch),
+                Message::Hello(status) | Message::Heartbeat(status) => {
+                    peers_settled.insert(received.envelope.robot, status.settled);
+                    true
+                }
                 _ => true,
             }
         })?;
@@ -217,6 +246,23 @@ impl SingleRobot {
         Ok(())
     }
 
+    /// This robot is settled: its source has ended and it waits for no candidate or cloud.
+    fn settled(&self) -> bool {
+        let stats = self.robot().loop_stats();
+        self.source_ended && stats.queued == 0 && stats.awaiting_cloud == 0
+    }
+
+    /// This robot and every other robot of the fleet (`run.robots`) are settled, as their latest
+    /// statuses say; a robot never heard from is not.
+    fn fleet_settled(&self) -> bool {
+        let me = self.robot().robot();
+        self.settled()
+            && (0..self.fleet.config.run.robots)
+                .map(RobotId)
+                .filter(|&robot| robot != me)
+                .all(|robot| self.peers_settled.get(&robot) == Some(&true))
+    }
+
     /// This robot's status for `Hello` and `Heartbeat`.
     fn status(&self) -> PeerStatus {
         let robot = self.robot();
@@ -229,6 +275,7 @@ impl SingleRobot {
                 serves_clouds: true,
                 max_message_bytes: robot.protocol().config().max_message_bytes,
             },
+            settled: self.settled(),
         }
     }
 

@@ -296,6 +296,7 @@ fn bad_datagrams(from: RobotId, claimed: RobotId) -> Vec<Vec<u8>> {
             serves_clouds: true,
             max_message_bytes: 1 << 20,
         },
+        settled: false,
     };
     let mut liar = ProtocolEndpoint::new(claimed, 77, ProtocolConfig::default());
     let impostor = liar.encode(&Message::Heartbeat(status.clone())).unwrap();

@@ -24,6 +24,10 @@ use std::time::{Duration, Instant};
 
 const SCANS: u64 = 130;
 
+/// How long a robot of the first two fleets answers at most after its source ends; they stop sooner,
+/// once every robot of the fleet says it is settled.
+const LINGER_CAP_S: f64 = 60.0;
+
 /// The fleets of the tests below run one at a time: each is three processes in real time, and two at
 /// once on a 2-core machine would starve the robots of the time their exchanges need.
 static ONE_FLEET_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
@@ -219,15 +223,19 @@ fn check_robot(summary: &serde_json::Value, robot: usize, stderr: &str) -> (u64,
 fn three_robot_processes_find_each_others_loops_over_zenoh() {
     let _turn = one_fleet_at_a_time();
     let fleet = Fleet::new("three", 3);
-    // Each robot answers its peers for 20 s after its last scan: on a loaded machine a robot that
-    // verifies many loops falls well behind real time, and finds its loops with robot 1 (whose scans may
-    // all be made before that robot's descriptors of the shared street arrive) after robot 1's source
-    // has ended.
-    let children: Vec<RobotProcess> = (0..3).map(|robot| fleet.spawn(robot, 20.0)).collect();
+    // Each robot answers its peers for up to a minute after its last scan: on a loaded machine a robot
+    // that verifies many loops falls well behind real time, and finds its loops with robot 1 (whose
+    // scans may all be made before that robot's descriptors of the shared street arrive) after robot
+    // 1's source has ended. The robots stop sooner, once all three say they are settled.
+    let children: Vec<RobotProcess> = (0..3).map(|robot| fleet.spawn(robot, LINGER_CAP_S)).collect();
     let mut clouds_fetched = 0;
     let mut found_total = 0;
     for (robot, child) in children.into_iter().enumerate() {
         let stderr = finish(child, robot, Duration::from_secs(240));
+        assert!(
+            stderr.contains("every robot of the fleet is settled"),
+            "robot {robot} lingered to the end instead of stopping with the fleet:\n{stderr}"
+        );
         let summary = fleet.summary(robot);
         let (found, _) = check_robot(&summary, robot, &stderr);
         found_total += found;
@@ -247,8 +255,8 @@ fn a_killed_robot_process_restarts_and_the_others_finish() {
     // Every robot lingers long enough to serve the others to their ends: on a loaded machine a robot
     // that verifies many loops falls well behind real time, and finds its loops with robot 1 after
     // robot 1's source has ended.
-    let first = fleet.spawn(0, 20.0);
-    let third = fleet.spawn(2, 20.0);
+    let first = fleet.spawn(0, LINGER_CAP_S);
+    let third = fleet.spawn(2, LINGER_CAP_S);
     let mut second = fleet.spawn(1, 4.0);
     std::thread::sleep(Duration::from_secs(4));
     assert!(
@@ -258,7 +266,7 @@ fn a_killed_robot_process_restarts_and_the_others_finish() {
     second.child.kill().unwrap();
     second.child.wait().unwrap();
     std::thread::sleep(Duration::from_millis(500));
-    let restarted = fleet.spawn(1, 20.0);
+    let restarted = fleet.spawn(1, LINGER_CAP_S);
     let restarted_log = finish(restarted, 1, Duration::from_secs(240));
     let first_log = finish(first, 0, Duration::from_secs(240));
     let third_log = finish(third, 2, Duration::from_secs(240));

@@ -58,6 +58,7 @@ impl Robot {
             robot: self.id,
             latest_keyframe: self.keyframes.checked_sub(1),
             capabilities: Capabilities::default(),
+            settled: false,
         })];
         if !entries.is_empty() {
             messages.push(Message::Descriptors(DescriptorBatch {
@@ -189,6 +190,7 @@ fn malformed_and_oversized_messages_from_a_peer_are_refused() {
             robot: RobotId(7),
             latest_keyframe: None,
             capabilities: Capabilities::default(),
+            settled: false,
         }))
         .unwrap();
     let mut oversized = b"SKiD".to_vec();
@@ -200,6 +202,7 @@ fn malformed_and_oversized_messages_from_a_peer_are_refused() {
             robot: RobotId(0),
             latest_keyframe: Some(1_000_000),
             capabilities: Capabilities::default(),
+            settled: false,
         }))
         .unwrap();
     for bytes in [

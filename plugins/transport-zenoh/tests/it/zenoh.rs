@@ -148,6 +148,7 @@ fn zenoh_robot_process() {
         robot: RobotId(robot),
         latest_keyframe: Some(0),
         capabilities: Capabilities::default(),
+        settled: false,
     });
     let mut got = BTreeSet::new();
     let mut alive = BTreeSet::new();

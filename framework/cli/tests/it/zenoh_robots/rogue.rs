@@ -76,6 +76,7 @@ fn hostile_messages(robot: u32) -> Vec<Message> {
             robot: RobotId(robot),
             latest_keyframe: Some(5),
             capabilities: Capabilities::default(),
+            settled: false,
         }),
         // Each on its own keyframe: a host hands a keyframe's descriptor to its index once.
         descriptors(robot, 5, "scan_context", 40, HOUR_NANOS + 1),
