@@ -356,6 +356,12 @@ impl RobotHost {
         self.clock.now_nanos(self.own.newest_stamp_nanos().unwrap_or(0))
     }
 
+    /// Inter-robot candidates still wait here, queued for the budget or for a peer's cloud (the
+    /// `queued` and `awaiting_cloud` of [`Self::loop_stats`], without building the counters).
+    pub(crate) fn candidates_waiting(&self) -> bool {
+        self.candidates.len() > 0 || self.peer_clouds.waiting() > 0
+    }
+
     /// The loop counters with the accepted, rejected, undecided and awaiting counts as they stand now.
     pub fn loop_stats(&self) -> LoopStats {
         let mut stats = self.loops.stats(loop_book::BudgetFigures {

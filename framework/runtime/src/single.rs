@@ -57,8 +57,6 @@ pub struct SingleRobot {
     catch_up: CatchUp,
     /// Whether each peer's latest `Hello` or `Heartbeat` said it is settled.
     peers_settled: BTreeMap<RobotId, bool>,
-    /// This robot's source has ended (it lingers).
-    source_ended: bool,
 }
 
 impl SingleRobot {
@@ -99,7 +97,6 @@ impl SingleRobot {
             },
             catch_up: CatchUp::default(),
             peers_settled: BTreeMap::new(),
-            source_ended: false,
         })
     }
 
@@ -135,7 +132,6 @@ impl SingleRobot {
                     let (finished, stamp) = self.step()?;
                     progress(self.robot().scans().len());
                     if finished {
-                        self.source_ended = true;
                         tracing::info!(robot = %self.robot().robot(), linger_s = linger.as_secs_f64(), "source ended; answering peers");
                         *linger_until.insert(Instant::now() + linger)
                     } else {
@@ -248,8 +244,8 @@ impl SingleRobot {
 
     /// This robot is settled: its source has ended and it waits for no candidate or cloud.
     fn settled(&self) -> bool {
-        let stats = self.robot().loop_stats();
-        self.source_ended && stats.queued == 0 && stats.awaiting_cloud == 0
+        let robot = self.robot();
+        robot.finished && !robot.candidates_waiting()
     }
 
     /// This robot and every other robot of the fleet (`run.robots`) are settled, as their latest
