@@ -340,6 +340,11 @@ fn out_of_range_values_are_refused_at_load_time_naming_the_key() {
         ("loops.candidate_expiry_s=nan", "loops.candidate_expiry_s"),
         ("loops.cloud_grid_m=2", "loops.cloud_grid_m"),
         ("loops.cloud_resend_after_s=-1", "loops.cloud_resend_after_s"),
+        ("loops.loop_sigma_rotation_deg=0", "loops.loop_sigma_rotation_deg"),
+        (
+            "loops.backend_loop_sigma_rotation_deg=-0.25",
+            "loops.backend_loop_sigma_rotation_deg",
+        ),
         (
             "fine.gicp.max_correspondence_m=0",
             "fine.gicp.max_correspondence_m",

@@ -13,7 +13,7 @@ use super::loop_book::LoopEvent;
 use super::peer_clouds::PendingCandidate;
 use crate::error::RuntimeError;
 use crate::graph::HostGraph;
-use crate::settings::loop_information;
+use crate::settings::{backend_loop_information, loop_information};
 
 /// True when the coarse registration's rival alignment holds at least `ratio` of the best one's inliers
 /// (`ratio = 0` turns the test off).
@@ -210,8 +210,11 @@ impl RobotHost {
     pub(crate) fn backend_add_loop(
         &mut self,
         config: &ResolvedConfig,
-        closure: LoopClosure,
+        mut closure: LoopClosure,
     ) -> Result<(), RuntimeError> {
+        if let Some(information) = backend_loop_information(&config.loops) {
+            closure.information = information;
+        }
         let added = self
             .plugins
             .backend
