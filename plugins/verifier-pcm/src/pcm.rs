@@ -259,9 +259,16 @@ impl Group {
                 &self.refuted,
                 graph,
             );
-            if self.clique.is_empty() || !matches!(self.withheld, Some(Withheld::Unconfirmed { .. })) {
+            let Some(reason @ Withheld::Unconfirmed { .. }) = &self.withheld else {
+                return;
+            };
+            if self.clique.is_empty() {
                 return;
             }
+            tracing::debug!(
+                loops = self.clique.len(),
+                "PCM: a frame hypothesis is refuted for good: {reason}"
+            );
             self.refuted.extend(self.clique.iter().copied());
             (self.clique, self.exact) = self.leading_without_refuted(params);
         }
