@@ -249,14 +249,17 @@ pub struct LoopsSection {
     pub odometry_sigma_min_m: f64,
     pub odometry_sigma_rotation_deg: f64,
     /// Standard deviation of an accepted loop's measurement, translation (m) and rotation (degrees) per
-    /// axis, as the verifier's consistency test and the back-end weigh it. A registration's own Hessian
+    /// axis, as the verifier's consistency test and (unless `backend_loop_sigma_rotation_deg` is set)
+    /// the back-end weigh it. A registration's own Hessian
     /// sums over thousands of points and would make a loop far more certain than it is, so a loop gets a
     /// fixed, honest value. The simulator's accepted loops are off by 0.04–0.12° per axis (RMS, with a
     /// tail to 1°) and the real HDL-32E pair by 0.24° after KISS-Matcher + GICP. At 0.25° the rotation a
     /// cycle of robots closes is spread along the odometry (0.2° per keyframe) rather than left to the
     /// loops, and sixteen robots chained five deep sit within 0.65 m by `T_β,APE` instead of 1.1 m; but on
     /// three robots the tighter value makes the verifier withdraw loops of a pair that 1° keeps (52
-    /// inter-robot loops instead of 65, α/β 1.5–3 cm worse), so the default stays at 1°.
+    /// inter-robot loops instead of 65, α/β 1.5–3 cm worse: the changed estimate lets the prediction
+    /// check refute the pair's true set, the same with the tighter σ in the back-end alone), so the
+    /// default stays at 1°.
     pub loop_sigma_m: f64,
     pub loop_sigma_rotation_deg: f64,
     /// Rotation standard deviation (degrees per axis) with which the back-end weighs an accepted loop,

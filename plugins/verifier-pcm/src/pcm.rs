@@ -349,15 +349,16 @@ impl Pcm {
             }
             group.settle(&self.params, graph);
             let after: BTreeSet<usize> = group.granted().iter().copied().collect();
-            if let Some(reason) = group.withheld.as_ref().filter(|_| !before.is_subset(&after)) {
+            let withdrawn: Vec<LoopId> = before.difference(&after).map(|&k| group.loops[k].id).collect();
+            if let Some(reason) = group.withheld.as_ref().filter(|_| !withdrawn.is_empty()) {
                 tracing::debug!(
                     robots = %format!("{a}-{b}"),
-                    withdrawn = before.difference(&after).count(),
+                    withdrawn = withdrawn.len(),
                     "PCM: a granted set is withdrawn on reconsideration: {reason}"
                 );
             }
             accepted.extend(after.difference(&before).map(|&k| group.loops[k].id));
-            retracted.extend(before.difference(&after).map(|&k| group.loops[k].id));
+            retracted.extend(withdrawn);
         }
         (accepted, retracted)
     }
