@@ -370,10 +370,6 @@ fn out_of_range_values_are_refused_at_load_time_naming_the_key() {
             "verifier.pcm.consistency.consistency_probability",
         ),
         (
-            "verifier.pcm.consistency.refutation_significance=0",
-            "verifier.pcm.consistency.refutation_significance",
-        ),
-        (
             "backend.pgo.inlier_probability=2",
             "backend.pgo.inlier_probability",
         ),

@@ -62,8 +62,7 @@ pub(crate) enum Withheld {
     /// The loops put both robots in one place at one time.
     Together { loops: usize },
     /// Few of the keyframe pairs its frame puts in one place, beyond its loops, look alike.
-    /// `as_few` is the probability of so few alike pairs from a true frame.
-    Unconfirmed { pairs: usize, alike: usize, as_few: f64 },
+    Unconfirmed { pairs: usize, alike: usize },
     /// The frame through a third robot disagrees with most of the loops.
     Contradicted { via: RobotId, off_m: f64, off_deg: f64 },
 }
@@ -78,9 +77,9 @@ impl std::fmt::Display for Withheld {
                 f,
                 "{loops} of its loops put both robots in one place at one time, which two vehicles cannot be"
             ),
-            Self::Unconfirmed { pairs, alike, as_few } => write!(
+            Self::Unconfirmed { pairs, alike } => write!(
                 f,
-                "of {pairs} keyframe pairs its frame puts in one place beyond its loops, only {alike} look alike (a true frame shows as few with probability {as_few:.3})"
+                "of {pairs} keyframe pairs its frame puts in one place beyond its loops, only {alike} look alike"
             ),
             Self::Contested { rival } => write!(f, "a rival frame hypothesis is supported by {rival} loops"),
             Self::Contradicted { via, off_m, off_deg } => write!(
@@ -121,7 +120,6 @@ pub(crate) fn judge(
         return Some(Withheld::Unconfirmed {
             pairs: predicted.pairs,
             alike: predicted.alike,
-            as_few: predicted.as_few_probability(rule.overlaps.min_alike_fraction),
         });
     }
     contradiction(rule, loops, members, graph)

@@ -90,11 +90,6 @@ pub struct PcmParams {
     pub predicted_beyond_m: f64,
     pub min_predicted_pairs: usize,
     pub min_alike_fraction: f64,
-    /// The predictions refute a set only when a true frame, its pairs alike at `min_alike_fraction`,
-    /// would show as few alike with at most this probability (binomial): a handful of pairs falls below
-    /// the fraction by chance where true revisits look alike at about that rate. 1 refutes at any count
-    /// below the fraction.
-    pub refutation_significance: f64,
 }
 
 impl Default for PcmParams {
@@ -117,7 +112,6 @@ impl Default for PcmParams {
             predicted_beyond_m: 10.0,
             min_predicted_pairs: 10,
             min_alike_fraction: 0.3,
-            refutation_significance: 0.05,
         }
     }
 }
@@ -161,12 +155,6 @@ impl PcmParams {
                 format!("must lie in [0, 1], got {}", self.min_alike_fraction),
             ));
         }
-        if !(self.refutation_significance > 0.0 && self.refutation_significance <= 1.0) {
-            return Err(ParamError::at(
-                "refutation_significance",
-                format!("must lie in (0, 1], got {}", self.refutation_significance),
-            ));
-        }
         Ok(())
     }
 
@@ -185,7 +173,6 @@ impl PcmParams {
                 beyond_m: self.predicted_beyond_m,
                 min_pairs: self.min_predicted_pairs,
                 min_alike_fraction: self.min_alike_fraction,
-                refutation_significance: self.refutation_significance,
             },
         }
     }

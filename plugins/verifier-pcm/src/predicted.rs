@@ -4,18 +4,10 @@
 //! Where they truly were, their descriptors look alike as the set's own keyframes did; a look-alike
 //! stretch of two different places (a street and its quarter-turned copy, one robot's first seconds
 //! and another's passage elsewhere) stops looking alike beyond it, on the rest of the routes the frame
-//! lays side by side. So a set is granted only while enough of the keyframe pairs it predicts farther
+//! lays side by side. So a set is granted only while most of the keyframe pairs it predicts farther
 //! than `predicted_beyond_m` from its loops' places look alike too, once there are at least
 //! `min_predicted_pairs` of them; a granted set whose routes run on apart is withdrawn when the
-//! predictions fail.
-//!
-//! "Enough" is a test, not a point estimate: a true frame's predicted pairs look alike at some rate of
-//! at least `min_alike_fraction`, and a handful of them falls below it by chance (in the simulated
-//! planetary world a true frame's pairs look alike 14–33 % of the time, and 2 of 10 is common). The
-//! predictions refute the frame only when so few look alike that a true frame would give as few with
-//! probability at most `refutation_significance` (binomial, at `min_alike_fraction`); a wrong frame's
-//! pairs, two different places each, soon fall that far (0 of 19 and 0 of 33 in the urban grid's false
-//! merges). This is the check the SKiD issue on self-similar places asks of a merge beyond
+//! predictions fail. This is the check the SKiD issue on self-similar places asks of a merge beyond
 //! pairwise consistency: evidence of another kind than more loops of the same look-alike. Descriptors
 //! are compared through [`GraphView::looks_alike`]; without it (another host, a plugin descriptor
 //! that cannot compare stored keyframes) nothing is predicted and the rule stands aside.
@@ -34,9 +26,6 @@ pub(crate) struct OverlapRule {
     pub beyond_m: f64,
     pub min_pairs: usize,
     pub min_alike_fraction: f64,
-    /// The largest probability at which a true frame would show as few alike pairs; 1 refutes at any
-    /// count below the fraction.
-    pub refutation_significance: f64,
 }
 
 /// The predicted keyframe pairs beyond the loops whose descriptors could be compared, and how many of
@@ -47,42 +36,13 @@ pub(crate) struct Predicted {
     pub alike: usize,
 }
 
-impl Predicted {
-    /// The probability that a true frame, whose pairs look alike at `rate`, shows at most this many
-    /// alike pairs.
-    pub(crate) fn as_few_probability(&self, rate: f64) -> f64 {
-        at_most_probability(self.alike, self.pairs, rate)
-    }
-}
-
 impl OverlapRule {
-    /// Whether the predictions refute the frame: enough of them, fewer alike than the fraction, and so
-    /// few that a true frame would rarely show them.
+    /// Whether the predictions refute the frame.
     pub(crate) fn refutes(&self, predicted: Predicted) -> bool {
         self.radius_m > 0.0
             && predicted.pairs >= self.min_pairs.max(1)
             && (predicted.alike as f64) < self.min_alike_fraction * predicted.pairs as f64
-            && predicted.as_few_probability(self.min_alike_fraction) <= self.refutation_significance
     }
-}
-
-/// The binomial probability of at most `k` successes in `n` trials of probability `p`.
-pub(crate) fn at_most_probability(k: usize, n: usize, p: f64) -> f64 {
-    if k >= n || p <= 0.0 {
-        return 1.0;
-    }
-    if p >= 1.0 {
-        return 0.0;
-    }
-    // The terms C(n, i) p^i (1 - p)^(n - i) in log space, so that long routes do not underflow.
-    let (ln_p, ln_q) = (p.ln(), (1.0 - p).ln());
-    let mut ln_term = n as f64 * ln_q;
-    let mut sum = 0.0;
-    for i in 0..=k {
-        sum += ln_term.exp();
-        ln_term += ((n - i) as f64).ln() - ((i + 1) as f64).ln() + ln_p - ln_q;
-    }
-    sum.min(1.0)
 }
 
 /// How a robot's keyframes are placed against its first one.
@@ -244,11 +204,7 @@ pub(crate) fn predicted_overlaps(
         loops = members.len(),
         pairs = predicted.pairs,
         alike = predicted.alike,
-        as_few = predicted.as_few_probability(rule.min_alike_fraction),
         "PCM: keyframe pairs a frame hypothesis predicts beyond its loops"
     );
     predicted
 }
-
-#[cfg(test)]
-mod tests;
