@@ -249,13 +249,12 @@ pub struct LoopsSection {
     pub odometry_sigma_min_m: f64,
     pub odometry_sigma_rotation_deg: f64,
     /// Standard deviation of an accepted loop's measurement, translation (m) and rotation (degrees) per
-    /// axis, as the verifier's consistency test and (unless `backend_loop_sigma_rotation_deg` is set)
-    /// the back-end weigh it. A registration's own Hessian
+    /// axis, as the verifier's consistency test weighs it; the back-end takes the translation σ and its
+    /// own `backend_loop_sigma_rotation_deg` (this rotation σ when that is 0). A registration's own Hessian
     /// sums over thousands of points and would make a loop far more certain than it is, so a loop gets a
     /// fixed, honest value. The simulator's accepted loops are off by 0.04–0.12° per axis (RMS, with a
-    /// tail to 1°) and the real HDL-32E pair by 0.24° after KISS-Matcher + GICP. The verifier's test
-    /// needs that tail, so it tests at 1°; the back-end weighs loops at its own, tighter
-    /// `backend_loop_sigma_rotation_deg`.
+    /// tail to 1°) and the real HDL-32E pair by 0.24° after KISS-Matcher + GICP; the verifier's test
+    /// needs that tail, hence 1°.
     pub loop_sigma_m: f64,
     pub loop_sigma_rotation_deg: f64,
     /// Rotation standard deviation (degrees per axis) with which the back-end weighs an accepted loop,
