@@ -19,7 +19,8 @@ use crate::chain::{Chains, Step};
 use crate::distributed::{Prior, Scope, align_peers, build, write_back};
 use crate::error::PgoError;
 use crate::g2o_file::{Initialization, RobustMode};
-use crate::gnc::{GncSettings, gnc_tls, gnc_tls_warm, strict_threshold};
+use crate::gnc::{GncSettings, gnc_tls, strict_threshold};
+use crate::gnc_warm::{WarmRegion, gnc_tls_warm};
 use crate::group::PoseGroup;
 use crate::incremental::Memory;
 use crate::lm::{LmSettings, SystemCache, optimize};
@@ -401,6 +402,7 @@ impl PgoBackend {
             relative_cost_tolerance: self.config.relative_tolerance,
             ..LmSettings::default()
         };
+        let solve_start = std::time::Instant::now();
         let report = if self.config.robust == RobustMode::Gnc {
             let nominal = self.kernel.width * self.kernel.width;
             let gnc = GncSettings {
@@ -411,13 +413,20 @@ impl PgoBackend {
             let outcome = match self.memory.warm_start_threshold() {
                 Some(threshold) => {
                     let earlier = self.memory.earlier_labels(&subgraph.factor_loops);
-                    let hops = (self.config.warm_region_hops > 0).then_some(self.config.warm_region_hops);
+                    // When a rejected new loop is settled by a full run, a new loop the region
+                    // rejects goes to that run straight away, without a warm run over the whole graph
+                    // first (which costs three quarters of a full run and, when it rejects the loop
+                    // too, is thrown away).
+                    let region = (self.config.warm_region_hops > 0).then_some(WarmRegion {
+                        hops: self.config.warm_region_hops,
+                        whole_graph_on_rejection: !self.config.full_run_on_rejected_new_loop,
+                    });
                     let warm = gnc_tls_warm(
                         &mut subgraph.problem,
                         &gnc,
                         threshold,
                         &earlier,
-                        hops,
+                        region,
                         &mut self.cache,
                     )?;
                     // A new loop the warm run rejects may be the one that overturns the consensus the
@@ -437,6 +446,14 @@ impl PgoBackend {
                 None => self.full_gnc_run(subgraph, &gnc, loop_count, nominal)?,
             };
             self.memory.keep_labels(&subgraph.factor_loops, &outcome.weights);
+            tracing::debug!(
+                outer = outcome.outer_iterations,
+                iterations = outcome.total_iterations,
+                factorizations = outcome.factorizations,
+                region_poses = ?outcome.region_poses,
+                elapsed_ms = solve_start.elapsed().as_secs_f64() * 1e3,
+                "GNC solve"
+            );
             OptimizeReport {
                 iterations: outcome.total_iterations,
                 initial_cost: outcome.initial_cost,

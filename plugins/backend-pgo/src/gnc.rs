@@ -43,7 +43,6 @@ use crate::error::PgoError;
 use crate::group::PoseGroup;
 use crate::lm::{FixedWeights, LmOutcome, LmSettings, StopReason, SystemCache, optimize};
 use crate::problem::Problem;
-use crate::region::region_around;
 
 /// Parameters of GNC-TLS.
 #[derive(Clone, Copy, Debug)]
@@ -83,7 +82,7 @@ impl Default for GncSettings {
 impl GncSettings {
     /// Refuses settings no GNC run can use: a threshold that is not positive, a `μ` factor that does not
     /// grow `μ`, no step per update.
-    fn check(&self) -> Result<(), PgoError> {
+    pub(crate) fn check(&self) -> Result<(), PgoError> {
         if self.threshold_squared.is_finite()
             && self.threshold_squared > 0.0
             && self.mu_factor > 1.0
@@ -191,118 +190,6 @@ pub fn gnc_tls<G: PoseGroup<D>, const D: usize>(
     Ok(outcome)
 }
 
-/// GNC-TLS warm-started from an earlier solution (issue #18: cost that stays flat as the graph grows).
-/// Loops that carry an earlier label in `earlier` (by factor) keep it while the loops new since then
-/// graduate at `threshold_squared` (the earlier run's, variance factor included) from the current
-/// poses; then every loop is re-labelled against the nominal threshold until no label changes, as after
-/// a full run, so new evidence can still overturn an earlier label.
-///
-/// With `region_hops`, the new loops graduate with only the poses within that many factors of their
-/// ends free ([`crate::region`]), and the whole graph then takes their labels in one refinement. If a
-/// new loop ends there as an outlier, the warm run is done again over the whole graph from the same
-/// start, so that a loop is never rejected only because the region was too small to bend to it.
-pub fn gnc_tls_warm<G: PoseGroup<D>, const D: usize>(
-    problem: &mut Problem<G, D>,
-    settings: &GncSettings,
-    threshold_squared: f64,
-    earlier: &[Option<f64>],
-    region_hops: Option<usize>,
-    cache: &mut SystemCache<D>,
-) -> Result<GncOutcome, PgoError> {
-    settings.check()?;
-    if earlier.len() != problem.factors.len() || !(threshold_squared.is_finite() && threshold_squared > 0.0) {
-        return Err(PgoError::Option(
-            "a warm GNC start needs one earlier label per factor and a positive threshold".into(),
-        ));
-    }
-    let mut weights = vec![1.0; problem.factors.len()];
-    let mut free = vec![false; problem.factors.len()];
-    for (k, factor) in problem.factors.iter().enumerate() {
-        if factor.robust {
-            match earlier[k] {
-                Some(label) => weights[k] = label,
-                None => free[k] = true,
-            }
-        }
-    }
-    if let Some(hops) = region_hops {
-        let region = region_around(problem, &free, &weights, hops);
-        let free_poses = |fixed: &[bool]| fixed.iter().filter(|f| !**f).count();
-        let everywhere = free_poses(&problem.fixed);
-        let fixed_outside: Vec<bool> = problem
-            .fixed
-            .iter()
-            .zip(&region)
-            .map(|(f, inside)| *f || !inside)
-            .collect();
-        let inside = free_poses(&fixed_outside);
-        if inside < everywhere {
-            let (whole_fixed, start_poses) = (
-                std::mem::replace(&mut problem.fixed, fixed_outside),
-                problem.poses.clone(),
-            );
-            // The region's structure changes with every call: its own cache, the whole graph's kept.
-            let local = graduate_warm(
-                problem,
-                settings,
-                threshold_squared,
-                &weights,
-                &free,
-                &mut SystemCache::default(),
-            );
-            problem.fixed = whole_fixed;
-            let mut outcome = local?;
-            let rejected_new = free
-                .iter()
-                .zip(&outcome.weights)
-                .any(|(is_new, w)| *is_new && *w == 0.0);
-            if !rejected_new {
-                let whole = optimize(
-                    problem,
-                    &FixedWeights(&outcome.weights),
-                    &polish_settings(&settings.inner),
-                    cache,
-                )?;
-                outcome.total_iterations += whole.iterations;
-                outcome.factorizations += whole.factorizations;
-                outcome.last = whole;
-                outcome.region_poses = Some(inside);
-                readmit(problem, settings, &mut outcome, cache)?;
-                return Ok(outcome);
-            }
-            problem.poses = start_poses;
-        }
-    }
-    let mut outcome = graduate_warm(problem, settings, threshold_squared, &weights, &free, cache)?;
-    readmit(problem, settings, &mut outcome, cache)?;
-    Ok(outcome)
-}
-
-/// The graduated part of a warm run: the start's solve, then the loops marked `free` graduating at
-/// `threshold_squared` while the others keep the weight `weights` gives them.
-fn graduate_warm<G: PoseGroup<D>, const D: usize>(
-    problem: &mut Problem<G, D>,
-    settings: &GncSettings,
-    threshold_squared: f64,
-    weights: &[f64],
-    free: &[bool],
-    cache: &mut SystemCache<D>,
-) -> Result<GncOutcome, PgoError> {
-    let start = solve_start(problem, settings, cache, weights, free)?;
-    let mut outcome = graduate_free(
-        problem,
-        settings,
-        threshold_squared,
-        cache,
-        weights.to_vec(),
-        free,
-        &start,
-    )?;
-    outcome.total_iterations += start.solve.iterations;
-    outcome.factorizations += start.solve.factorizations;
-    Ok(outcome)
-}
-
 /// The threshold a full [`gnc_tls`] run graduated at last: the nominal `threshold_squared` scaled by
 /// the run's variance factor when that showed pessimistic covariances (what a warm start should graduate
 /// new loops at).
@@ -332,7 +219,7 @@ fn variance_factor<G: PoseGroup<D>, const D: usize>(problem: &Problem<G, D>, wei
 
 /// Labels every robust factor against the nominal threshold at the current solution and re-solves, until
 /// no label changes (at most ten rounds).
-fn readmit<G: PoseGroup<D>, const D: usize>(
+pub(crate) fn readmit<G: PoseGroup<D>, const D: usize>(
     problem: &mut Problem<G, D>,
     settings: &GncSettings,
     outcome: &mut GncOutcome,
@@ -364,7 +251,7 @@ fn readmit<G: PoseGroup<D>, const D: usize>(
 }
 
 /// The inner settings for a solve with binary weights: at least 50 steps, as it may have far to go.
-fn polish_settings(inner: &LmSettings) -> LmSettings {
+pub(crate) fn polish_settings(inner: &LmSettings) -> LmSettings {
     LmSettings {
         max_iterations: inner.max_iterations.max(50),
         ..*inner
@@ -373,15 +260,15 @@ fn polish_settings(inner: &LmSettings) -> LmSettings {
 
 /// Where a graduated run starts: the plain least-squares cost of the poses it was given, and the solve
 /// that moved them to the odometry solution (or to least squares over every factor).
-struct Start {
-    initial_cost: f64,
-    solve: LmOutcome,
+pub(crate) struct Start {
+    pub(crate) initial_cost: f64,
+    pub(crate) solve: LmOutcome,
 }
 
 /// Solves the start of a graduated run, moving the poses: with [`GncSettings::start_from_odometry`] the
 /// factors marked `free` weigh [`ODOMETRY_START_LOOP_WEIGHT`] and the others what `weights` gives them;
 /// without it, every factor weighs what `weights` gives it.
-fn solve_start<G: PoseGroup<D>, const D: usize>(
+pub(crate) fn solve_start<G: PoseGroup<D>, const D: usize>(
     problem: &mut Problem<G, D>,
     settings: &GncSettings,
     cache: &mut SystemCache<D>,
@@ -408,7 +295,7 @@ fn solve_start<G: PoseGroup<D>, const D: usize>(
 /// `free` change weight; they enter with weight 1 in `weights`, and the others keep the weight `weights`
 /// gives them (1 for odometry, a loop's earlier label in a warm start). The counts of the outcome leave
 /// out the start's solve.
-fn graduate_free<G: PoseGroup<D>, const D: usize>(
+pub(crate) fn graduate_free<G: PoseGroup<D>, const D: usize>(
     problem: &mut Problem<G, D>,
     settings: &GncSettings,
     c2: f64,
@@ -494,16 +381,16 @@ fn graduate_free<G: PoseGroup<D>, const D: usize>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use nalgebra::{Isometry2, Matrix3, Vector2};
 
-    use super::{GncSettings, gnc_tls, gnc_tls_warm, strict_threshold, tls_weight};
+    use super::{GncSettings, gnc_tls, tls_weight};
     use crate::lm::SystemCache;
     use crate::problem::{Problem, RawEdge, Unanchored};
 
     /// A 24-pose square loop driven twice with slightly noisy odometry, loops between the two laps (all
     /// true but one, which claims the robot stood 5 m and 90° elsewhere); the poses start at the odometry.
-    fn two_laps() -> (Problem<Isometry2<f64>, 3>, usize) {
+    pub(crate) fn two_laps() -> (Problem<Isometry2<f64>, 3>, usize) {
         let side = 6;
         let truth: Vec<Isometry2<f64>> = (0..4 * side * 2)
             .map(|k| {
@@ -585,67 +472,6 @@ mod tests {
             ..GncSettings::default()
         };
         assert!(gnc_tls(&mut problem, &none, &mut SystemCache::default()).is_err());
-    }
-
-    #[test]
-    fn new_loops_graduated_over_their_region_end_where_the_whole_graph_does() {
-        // The laps' loops but one (and the wrong one) solved first; the one left out comes back as new,
-        // alone and then with the wrong loop.
-        let (mut problem, wrong) = two_laps();
-        let new_loop = wrong - 4;
-        let wrong_factor = problem.factors.remove(wrong);
-        let new_factor = problem.factors.remove(new_loop);
-        let settings = GncSettings::default();
-        let first = gnc_tls(&mut problem, &settings, &mut SystemCache::default()).expect("GNC runs");
-        let threshold = strict_threshold(&first, settings.threshold_squared);
-        let solved = problem.clone();
-        let earlier: Vec<Option<f64>> = problem
-            .factors
-            .iter()
-            .zip(&first.weights)
-            .map(|(f, w)| f.robust.then_some(*w))
-            .collect();
-        for (added, with_wrong) in [
-            (vec![new_factor.clone()], false),
-            (vec![new_factor, wrong_factor], true),
-        ] {
-            let mut grown = solved.clone();
-            grown.factors.extend(added.iter().cloned());
-            let mut labels = earlier.clone();
-            labels.extend(added.iter().map(|_| None));
-            let run = |hops| {
-                let mut problem = grown.clone();
-                let outcome = gnc_tls_warm(
-                    &mut problem,
-                    &settings,
-                    threshold,
-                    &labels,
-                    hops,
-                    &mut SystemCache::default(),
-                )
-                .expect("a warm run");
-                (problem, outcome)
-            };
-            let (whole, whole_outcome) = run(None);
-            let (local, local_outcome) = run(Some(1));
-            assert_eq!(
-                local_outcome.weights, whole_outcome.weights,
-                "wrong loop added: {with_wrong}"
-            );
-            assert_eq!(whole_outcome.weights.last() == Some(&0.0), with_wrong);
-            if with_wrong {
-                assert_eq!(
-                    local_outcome.region_poses, None,
-                    "a rejected new loop is judged over the whole graph"
-                );
-            } else {
-                let region = local_outcome.region_poses.expect("graduated over the region");
-                assert!(region < 10, "{region} poses free of {}", grown.poses.len() - 1);
-            }
-            for (a, b) in local.poses.iter().zip(&whole.poses) {
-                assert!((a.translation.vector - b.translation.vector).norm() < 1e-4);
-            }
-        }
     }
 
     #[test]

@@ -13,7 +13,7 @@
 //! - **Warm GNC.** New loops graduate from the last solution while the earlier loops keep their labels,
 //!   with only the poses of their region free ([`crate::region`], `warm_region_hops`) and the whole graph
 //!   refined once afterwards; then every loop is re-labelled at the nominal threshold
-//!   ([`crate::gnc::gnc_tls_warm`]); a loop the verifier retracted simply leaves the warm solve. A full GNC run (from the odometry, with the
+//!   ([`crate::gnc_warm::gnc_tls_warm`]); a loop the verifier retracted simply leaves the warm solve. A full GNC run (from the odometry, with the
 //!   variance factor re-estimated) happens once the loops added and removed since the last full run
 //!   number as many as the loops that run had, so its cost, which grows with the graph, is amortised
 //!   to a constant per loop change however the verifier's verdicts come (additions only, or a set that

@@ -20,6 +20,7 @@ pub mod distributed;
 pub mod error;
 pub mod g2o_file;
 pub mod gnc;
+pub mod gnc_warm;
 pub mod group;
 pub mod incremental;
 pub mod linear;

@@ -1,5 +1,5 @@
 //! The part of a pose graph that new loop closures touch (issue #18): the poses within a few factors of
-//! a new loop's ends. A warm GNC run ([`crate::gnc::gnc_tls_warm`]) graduates the new loops with only
+//! a new loop's ends. A warm GNC run ([`crate::gnc_warm::gnc_tls_warm`]) graduates the new loops with only
 //! these poses free, so the many small steps of its graduated path cost in proportion to this region,
 //! not to the graph; the whole graph then takes the loops' final labels in one refinement.
 //!
