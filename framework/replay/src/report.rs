@@ -40,6 +40,12 @@ pub struct LoopCounts {
     pub outliers_kept: usize,
     /// True loops not kept (rejected, undecided or given no weight).
     pub inliers_dropped: usize,
+    /// The true loops dropped by where they were lost: the verifier's reason ([`RejectionKind::key`]:
+    /// `consistency`, `odometry`, `retracted`, ...), `undecided`, or `backend` (accepted, and given no
+    /// weight by the back-end's robust solve).
+    ///
+    /// [`RejectionKind::key`]: skid_core::slots::RejectionKind::key
+    pub inliers_dropped_by: BTreeMap<&'static str, usize>,
     /// Loops the verifier had not decided at the end.
     pub undecided: usize,
 }
@@ -156,9 +162,22 @@ fn loop_counts(problem: &ReplayProblem, fates: &BTreeMap<LoopId, LoopFate>) -> (
         counts.kept += usize::from(fate.kept());
         counts.undecided += usize::from(fate.undecided);
         counts.outliers_kept += usize::from(label.outlier && fate.kept());
-        counts.inliers_dropped += usize::from(!label.outlier && !fate.kept());
+        if !label.outlier && !fate.kept() {
+            counts.inliers_dropped += 1;
+            *counts.inliers_dropped_by.entry(lost_at(&fate)).or_default() += 1;
+        }
     }
     (intra, inter)
+}
+
+/// Where a loop that is not kept was lost (the keys of [`LoopCounts::inliers_dropped_by`]).
+fn lost_at(fate: &LoopFate) -> &'static str {
+    match (fate.undecided, fate.accepted, fate.rejected_by) {
+        (true, _, _) => "undecided",
+        (false, true, _) => "backend",
+        (false, false, Some(kind)) => kind.key(),
+        (false, false, None) => "other",
+    }
 }
 
 fn update_times(update_ms: &[f64]) -> UpdateTimes {

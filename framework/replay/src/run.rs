@@ -24,7 +24,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use skid_core::slots::{
-    Backend, GraphView, LoopCandidate, LoopClosure, OdometryMeasurement, OptimizeBudget, Verdict, Verifier,
+    Backend, GraphView, LoopCandidate, LoopClosure, OdometryMeasurement, OptimizeBudget, RejectionKind,
+    Verdict, Verifier,
 };
 use skid_core::{CloudView, Information, KeyframeId, LoopId, PluginError, PluginResult, Pose, RobotId};
 use skid_geometry::OdometryChains;
@@ -60,6 +61,8 @@ pub struct LoopFate {
     pub accepted: bool,
     /// The verifier had not decided at the end.
     pub undecided: bool,
+    /// Why the verifier last refused it (`retracted` when it took back an acceptance).
+    pub rejected_by: Option<RejectionKind>,
     /// Graphs that hold it at the end, and of those, graphs whose robust solve gives it weight.
     pub held_in: u32,
     pub weighed_in: u32,
@@ -333,15 +336,23 @@ fn apply_to_fates(fates: &mut BTreeMap<LoopId, LoopFate>, verdict: &Verdict) {
         let fate = fates.entry(*id).or_default();
         fate.accepted = true;
         fate.undecided = false;
+        fate.rejected_by = None;
     }
-    for id in verdict
+    let refused = verdict
         .retracted
         .iter()
-        .chain(verdict.rejected.iter().map(|(id, _)| id))
-    {
+        .map(|id| (id, RejectionKind::Retracted))
+        .chain(
+            verdict
+                .rejected
+                .iter()
+                .map(|(id, reason)| (id, RejectionKind::of(reason))),
+        );
+    for (id, kind) in refused {
         let fate = fates.entry(*id).or_default();
         fate.accepted = false;
         fate.undecided = false;
+        fate.rejected_by = Some(kind);
     }
 }
 

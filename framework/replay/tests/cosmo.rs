@@ -98,6 +98,18 @@ fn check(report: &ReplayReport, problem: &ReplayProblem) {
             counts.loops - counts.labelled_outliers,
             "every true loop is kept or dropped"
         );
+        assert_eq!(
+            counts.inliers_dropped_by.values().sum::<usize>(),
+            counts.inliers_dropped,
+            "every true loop dropped is dropped somewhere: {:?}",
+            counts.inliers_dropped_by
+        );
+        assert!(counts.inliers_dropped_by.get("undecided").copied().unwrap_or(0) <= counts.undecided);
+        assert!(
+            !counts.inliers_dropped_by.contains_key("other"),
+            "{:?}",
+            counts.inliers_dropped_by
+        );
     }
     assert_eq!(report.robots.len(), 3);
     for (index, robot) in report.robots.iter().enumerate() {

@@ -50,7 +50,7 @@ use candidate_queue::CandidateQueue;
 use frame_book::FrameBook;
 pub use frame_book::JoinedFrame;
 use loop_book::LoopBook;
-pub use loop_book::{LoopStanding, LoopStats, RejectionKind, StandingLoop};
+pub use loop_book::{LoopStanding, LoopStats, StandingLoop};
 use own_track::OwnTrack;
 pub use own_track::ScanRecord;
 use peer_clouds::PeerClouds;

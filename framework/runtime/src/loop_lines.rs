@@ -2,10 +2,11 @@
 //! classed by where it stands: what the run record's `/loops` markers, the plots and live viewers draw,
 //! from one table of classes.
 
+use skid_core::slots::RejectionKind;
 use skid_core::{KeyframeId, Pose};
 use skid_eval::plot::LoopClass;
 
-use crate::host::{LoopStanding, RejectionKind, RobotHost};
+use crate::host::{LoopStanding, RobotHost};
 
 /// The loop classes drawn: the record's marker namespace and colour (RGBA), and the plots' class.
 pub const LOOP_CLASSES: [(&str, [f32; 4], LoopClass); 4] = [

@@ -107,6 +107,14 @@ fn report_text(report: &ReplayReport) -> String {
             counts.inliers_dropped,
             counts.undecided
         ));
+        if !counts.inliers_dropped_by.is_empty() {
+            let by: Vec<String> = counts
+                .inliers_dropped_by
+                .iter()
+                .map(|(place, count)| format!("{place} {count}"))
+                .collect();
+            text.push_str(&format!("    true loops dropped by: {}\n", by.join(", ")));
+        }
     }
     text
 }

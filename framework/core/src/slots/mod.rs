@@ -9,6 +9,7 @@ mod backend;
 mod descriptor;
 mod frontend;
 mod registration;
+mod rejection;
 mod transport;
 
 pub use backend::{
@@ -18,4 +19,5 @@ pub use backend::{
 pub use descriptor::{Descriptor, DescriptorBuf, DescriptorIndex, PlaceCandidate};
 pub use frontend::{Odometry, OdometryUpdate, Source};
 pub use registration::{CoarseAlignment, CoarseRegistration, FineAlignment, FineRegistration, PreparedCloud};
+pub use rejection::RejectionKind;
 pub use transport::{Datagram, Destination, NetworkTotals, PeerInfo, SimulatedNetwork, Transport};
