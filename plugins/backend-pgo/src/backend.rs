@@ -402,7 +402,7 @@ impl PgoBackend {
             relative_cost_tolerance: self.config.relative_tolerance,
             ..LmSettings::default()
         };
-        let solve_start = std::time::Instant::now();
+        let solve_began = std::time::Instant::now();
         let report = if self.config.robust == RobustMode::Gnc {
             let nominal = self.kernel.width * self.kernel.width;
             let gnc = GncSettings {
@@ -451,7 +451,7 @@ impl PgoBackend {
                 iterations = outcome.total_iterations,
                 factorizations = outcome.factorizations,
                 region_poses = ?outcome.region_poses,
-                elapsed_ms = solve_start.elapsed().as_secs_f64() * 1e3,
+                elapsed_ms = solve_began.elapsed().as_secs_f64() * 1e3,
                 "GNC solve"
             );
             OptimizeReport {

@@ -175,24 +175,27 @@ mod tests {
             grown.factors.extend(added.iter().cloned());
             let mut labels = earlier.clone();
             labels.extend(added.iter().map(|_| None));
-            let run = |hops: Option<usize>| {
+            let run = |region: Option<WarmRegion>| {
                 let mut problem = grown.clone();
                 let outcome = gnc_tls_warm(
                     &mut problem,
                     &settings,
                     threshold,
                     &labels,
-                    hops.map(|hops| WarmRegion {
-                        hops,
-                        whole_graph_on_rejection: true,
-                    }),
+                    region,
                     &mut SystemCache::default(),
                 )
                 .expect("a warm run");
                 (problem, outcome)
             };
+            let region = |whole_graph_on_rejection| {
+                Some(WarmRegion {
+                    hops: 1,
+                    whole_graph_on_rejection,
+                })
+            };
             let (whole, whole_outcome) = run(None);
-            let (local, local_outcome) = run(Some(1));
+            let (local, local_outcome) = run(region(true));
             assert_eq!(
                 local_outcome.weights, whole_outcome.weights,
                 "wrong loop added: {with_wrong}"
@@ -211,19 +214,7 @@ mod tests {
                 assert!((a.translation.vector - b.translation.vector).norm() < 1e-4);
             }
             // A caller that settles a rejection by a full run gets the region's verdict and the start back.
-            let mut stopped = grown.clone();
-            let outcome = gnc_tls_warm(
-                &mut stopped,
-                &settings,
-                threshold,
-                &labels,
-                Some(WarmRegion {
-                    hops: 1,
-                    whole_graph_on_rejection: false,
-                }),
-                &mut SystemCache::default(),
-            )
-            .expect("a warm run");
+            let (stopped, outcome) = run(region(false));
             if with_wrong {
                 assert_eq!(
                     outcome.weights.last(),
