@@ -31,6 +31,9 @@ pub struct PcmLoop {
     pub source: KeyframeId,
     pub target_from_source: Pose,
     pub covariance: Matrix6<f64>,
+    /// The scans of the loop's two keyframes show each robot's body where the loop puts it at that
+    /// moment ([`crate::peer_seen::Sighting::Seen`]): evidence beyond the places' looks.
+    pub sighted: bool,
 }
 
 impl PcmLoop {
@@ -55,6 +58,7 @@ impl PcmLoop {
             source: closure.source,
             target_from_source: *pose,
             covariance,
+            sighted: false,
         };
         if pcm.target.robot > pcm.source.robot {
             pcm.covariance = inverse_covariance(&pcm.target_from_source, &pcm.covariance);
@@ -264,6 +268,7 @@ mod tests {
                 source: KeyframeId::new(1, id as u32),
                 target_from_source: z,
                 covariance: c,
+                sighted: false,
             };
             let a = loop_of(1, pose(k), covariance(k));
             let b = loop_of(2, pose(k + 0.4) * pose(0.2), covariance(k + 1.0));

@@ -29,6 +29,13 @@
 //! core is `min_range_m` to `max_range_m` from the sensor. Keyframes recorded farther apart in time
 //! than `within_s` say nothing about where the other robot was, and are not checked.
 //!
+//! The same rays also **confirm**: the peer is **sighted** when at least `min_rays` rays towards a box
+//! of `sighting_half_extents_m` around the core (by default 0.8 × 0.5 × 0.2 m, inside a ground rover's
+//! or a quadruped's body) end on it, within `margin_m` of its faces, and at most
+//! `max_sighted_through_fraction` of those reaching it pass through. A ray that ends farther before the
+//! box is occluded and says nothing. Sighted loops are positive evidence of a frame where the places
+//! alone cannot be told apart ([`crate::repeated`]).
+//!
 //! The check assumes the robots' stamps share one clock (the fleet's, as everywhere else in SKiD) and
 //! that a robot's scans are not cropped around other robots.
 
@@ -60,6 +67,10 @@ pub struct PeerSeenConfig {
     pub min_rays: usize,
     /// Largest fraction of those rays passing through the core that is accepted.
     pub max_through_fraction: f64,
+    /// Half extents of the box around the core whose rays confirm a sighting, metres.
+    pub sighting_half_extents_m: [f64; 3],
+    /// Largest fraction of the rays reaching the sighting box that may pass through it in a sighting.
+    pub max_sighted_through_fraction: f64,
 }
 
 impl Default for PeerSeenConfig {
@@ -75,6 +86,8 @@ impl Default for PeerSeenConfig {
             margin_fraction: 0.02,
             min_rays: 3,
             max_through_fraction: 0.8,
+            sighting_half_extents_m: [0.4, 0.25, 0.1],
+            max_sighted_through_fraction: 0.2,
         }
     }
 }
@@ -86,11 +99,22 @@ pub struct RayCount {
     pub blocked: usize,
 }
 
+/// What the rays of the two scans say about where an inter-robot loop puts each robot at one moment.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Sighting {
+    /// Not one moment, out of range, too few rays, or the check off: nothing either way.
+    Unjudged,
+    /// A scan shows the other robot's body where the loop puts it.
+    Seen,
+    /// A scan shows the place where the loop puts the other robot empty; the reason says how.
+    Unseen(String),
+}
+
 impl PeerSeenConfig {
     /// Checks that every value is usable; the error is at the offending key.
     pub fn validate(&self) -> Result<(), ParamError> {
         let positive = |value: f64| value.is_finite() && value > 0.0;
-        let checks: [(bool, &str, String); 7] = [
+        let checks: [(bool, &str, String); 9] = [
             (
                 positive(self.within_s),
                 "within_s",
@@ -132,6 +156,16 @@ impl PeerSeenConfig {
                 "max_through_fraction",
                 format!("must be in [0, 1], got {}", self.max_through_fraction),
             ),
+            (
+                self.sighting_half_extents_m.iter().all(|&h| positive(h)),
+                "sighting_half_extents_m",
+                format!("must all be positive, got {:?}", self.sighting_half_extents_m),
+            ),
+            (
+                (0.0..=1.0).contains(&self.max_sighted_through_fraction),
+                "max_sighted_through_fraction",
+                format!("must be in [0, 1], got {}", self.max_sighted_through_fraction),
+            ),
         ];
         match checks.into_iter().find(|(ok, _, _)| !ok) {
             Some((_, key, message)) => Err(ParamError::at(key, message)),
@@ -145,36 +179,73 @@ impl PeerSeenConfig {
     pub fn refusal(
         &self,
         closure: &LoopClosure,
-        (target, source): (&[Point], &[Point]),
+        clouds: (&[Point], &[Point]),
         graph: &dyn GraphView,
     ) -> Option<String> {
+        match self.judge(closure, clouds, graph) {
+            Sighting::Unseen(reason) => Some(reason),
+            Sighting::Seen | Sighting::Unjudged => None,
+        }
+    }
+
+    /// What the two scans say about the loop: the other robot absent from either where the loop puts
+    /// it refutes the loop; else its body on either confirms it.
+    pub fn judge(
+        &self,
+        closure: &LoopClosure,
+        (target, source): (&[Point], &[Point]),
+        graph: &dyn GraphView,
+    ) -> Sighting {
         let (target_id, source_id) = (closure.target, closure.source);
         if !self.enabled || target_id.robot == source_id.robot {
-            return None;
+            return Sighting::Unjudged;
         }
         let ways = [
             (target_id, source_id, target, closure.target_from_source),
             (source_id, target_id, source, closure.target_from_source.inverse()),
         ];
-        ways.into_iter().find_map(|(seer, seen, cloud, seer_from_seen)| {
-            let seen_sensor = self.peer_at_stamp(seer, seen, &seer_from_seen, graph)?;
+        let mut seen = false;
+        for (seer, seen_id, cloud, seer_from_seen) in ways {
+            let Some(seen_sensor) = self.peer_at_stamp(seer, seen_id, &seer_from_seen, graph) else {
+                continue;
+            };
             let distance_m = seen_sensor.translation.vector.norm();
             if !(self.min_range_m..=self.max_range_m).contains(&distance_m) {
-                return None;
+                continue;
             }
             let count = self.count(cloud, &seen_sensor);
             let crossing = count.through + count.blocked;
-            (crossing >= self.min_rays
-                && count.through as f64 > self.max_through_fraction * crossing as f64)
-                .then(|| {
-                    format!(
-                        "peer unseen: the loop puts robot {} {distance_m:.1} m from {seer}'s sensor at that moment, but {} of the {crossing} rays towards it passed through (> {:.0} %)",
-                        seen.robot,
-                        count.through,
-                        100.0 * self.max_through_fraction
-                    )
-                })
-        })
+            if crossing >= self.min_rays && count.through as f64 > self.max_through_fraction * crossing as f64
+            {
+                return Sighting::Unseen(format!(
+                    "peer unseen: the loop puts robot {} {distance_m:.1} m from {seer}'s sensor at that moment, but {} of the {crossing} rays towards it passed through (> {:.0} %)",
+                    seen_id.robot,
+                    count.through,
+                    100.0 * self.max_through_fraction
+                ));
+            }
+            seen |= self.sighted(cloud, &seen_sensor);
+        }
+        match seen {
+            true => Sighting::Seen,
+            false => Sighting::Unjudged,
+        }
+    }
+
+    /// Whether the rays of `cloud` towards the sighting box of a robot whose sensor is at
+    /// `seen_sensor` end on it: at least `min_rays` of them, and at most `max_sighted_through_fraction`
+    /// of those reaching it passing through.
+    fn sighted(&self, cloud: &[Point], seen_sensor: &Pose) -> bool {
+        let (mut on, mut through) = (0usize, 0usize);
+        let half = Vector3::from(self.sighting_half_extents_m);
+        for (range_m, near_m, far_m) in self.crossings(cloud, seen_sensor, &half) {
+            if range_m > far_m + self.margin_m + self.margin_fraction * range_m {
+                through += 1;
+            } else if range_m >= near_m - self.margin_m - self.margin_fraction * range_m {
+                on += 1;
+            }
+        }
+        on >= self.min_rays && through as f64 <= self.max_sighted_through_fraction * (on + through) as f64
     }
 
     /// The seen robot's sensor pose in the seer keyframe's frame at the seer's stamp, from the loop's
@@ -246,22 +317,9 @@ impl PeerSeenConfig {
     /// is at `seen_sensor`, split into those that pass through it and those that end before its far
     /// side.
     pub fn count(&self, cloud: &[Point], seen_sensor: &Pose) -> RayCount {
-        let [cx, cy, cz] = self.core_centre_m;
-        let centre = seen_sensor * Point3::new(cx, cy, cz);
-        let core_from_sensor = seen_sensor.rotation.inverse();
-        let half = Vector3::from(self.core_half_extents_m);
-        let origin = core_from_sensor * (Point3::origin() - centre);
         let mut count = RayCount::default();
-        for point in cloud {
-            let p = Vector3::new(f64::from(point.x), f64::from(point.y), f64::from(point.z));
-            let range_m = p.norm();
-            if !range_m.is_finite() || range_m < self.min_range_m {
-                continue;
-            }
-            let direction = core_from_sensor * (p / range_m);
-            let Some(far_m) = far_side(&origin, &direction, &half) else {
-                continue;
-            };
+        let half = Vector3::from(self.core_half_extents_m);
+        for (range_m, _, far_m) in self.crossings(cloud, seen_sensor, &half) {
             if range_m > far_m + self.margin_m + self.margin_fraction * range_m {
                 count.through += 1;
             } else {
@@ -270,10 +328,35 @@ impl PeerSeenConfig {
         }
         count
     }
+
+    /// Each ray of `cloud` whose line crosses the box of `half` extents centred on the core of a robot
+    /// whose sensor is at `seen_sensor`: its range and where it enters and leaves the box, metres.
+    fn crossings<'a>(
+        &'a self,
+        cloud: &'a [Point],
+        seen_sensor: &Pose,
+        half: &'a Vector3<f64>,
+    ) -> impl Iterator<Item = (f64, f64, f64)> + 'a {
+        let [cx, cy, cz] = self.core_centre_m;
+        let centre = seen_sensor * Point3::new(cx, cy, cz);
+        let box_from_sensor = seen_sensor.rotation.inverse();
+        let origin = box_from_sensor * (Point3::origin() - centre);
+        cloud.iter().filter_map(move |point| {
+            let p = Vector3::new(f64::from(point.x), f64::from(point.y), f64::from(point.z));
+            let range_m = p.norm();
+            if !range_m.is_finite() || range_m < self.min_range_m {
+                return None;
+            }
+            let direction = box_from_sensor * (p / range_m);
+            let (near_m, far_m) = crossing(&origin, &direction, half)?;
+            Some((range_m, near_m, far_m))
+        })
+    }
 }
 
-/// Where the ray from `origin` along `direction` leaves the box `[-half, half]`, if it crosses it ahead.
-fn far_side(origin: &Vector3<f64>, direction: &Vector3<f64>, half: &Vector3<f64>) -> Option<f64> {
+/// Where the ray from `origin` along `direction` enters and leaves the box `[-half, half]`, if it
+/// crosses it ahead.
+fn crossing(origin: &Vector3<f64>, direction: &Vector3<f64>, half: &Vector3<f64>) -> Option<(f64, f64)> {
     let (mut near, mut far) = (0.0f64, f64::INFINITY);
     for axis in 0..3 {
         let (o, d, h) = (origin[axis], direction[axis], half[axis]);
@@ -287,7 +370,7 @@ fn far_side(origin: &Vector3<f64>, direction: &Vector3<f64>, half: &Vector3<f64>
         near = near.max(a.min(b));
         far = far.min(a.max(b));
     }
-    (near <= far).then_some(far)
+    (near <= far).then_some((near, far))
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use crate::fitness::FitnessConfig;
 use crate::free_space::FreeSpaceConfig;
 use crate::odometry_bound::OdometryBound;
 use crate::pcm::{Pcm, PcmParams};
-use crate::peer_seen::PeerSeenConfig;
+use crate::peer_seen::{PeerSeenConfig, Sighting};
 
 /// Parameters of the `pcm` verifier: `[verifier.pcm]` with the fitness check in `[verifier.pcm.fitness]`,
 /// the free-space check in `[verifier.pcm.free_space]`, the peer-visibility check in
@@ -79,18 +79,26 @@ fn free_space_rejection(config: &FreeSpaceConfig, candidate: &LoopCandidate<'_>)
     config.judge(&count)
 }
 
-/// Runs the peer-visibility check on a candidate: `Some(reason)` when it puts one robot in the other's
-/// view at one moment and that one's scan shows it absent.
+/// Runs the peer-visibility check on a candidate: whether it puts one robot in the other's view at one
+/// moment, and whether the scans show it there or absent.
+fn peer_sighting(config: &PeerSeenConfig, candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> Sighting {
+    config.judge(
+        &candidate.closure,
+        (candidate.target_cloud.points(), candidate.source_cloud.points()),
+        graph,
+    )
+}
+
+/// [`peer_sighting`]'s refusal only: `Some(reason)` when the scans show the place empty.
 fn peer_seen_rejection(
     config: &PeerSeenConfig,
     candidate: &LoopCandidate<'_>,
     graph: &dyn GraphView,
 ) -> Option<String> {
-    config.refusal(
-        &candidate.closure,
-        (candidate.target_cloud.points(), candidate.source_cloud.points()),
-        graph,
-    )
+    match peer_sighting(config, candidate, graph) {
+        Sighting::Unseen(reason) => Some(reason),
+        Sighting::Seen | Sighting::Unjudged => None,
+    }
 }
 
 /// Checks that both keyframes of a loop are in the graph.
@@ -148,7 +156,7 @@ impl Verifier for PcmVerifier {
         if let Some(reason) = unknown_keyframe(candidate, graph) {
             return reject(reason);
         }
-        let pcm_loop = match PcmLoop::from_closure(&candidate.closure) {
+        let mut pcm_loop = match PcmLoop::from_closure(&candidate.closure) {
             Ok(pcm_loop) => pcm_loop,
             Err(reason) => return reject(reason),
         };
@@ -157,9 +165,20 @@ impl Verifier for PcmVerifier {
             .refusal(&candidate.closure, graph)
             .or_else(|| fitness_rejection(&self.fitness, candidate))
             .or_else(|| free_space_rejection(&self.free_space, candidate))
-            .or_else(|| peer_seen_rejection(&self.peer_seen, candidate, graph))
         {
             return reject(reason);
+        }
+        match peer_sighting(&self.peer_seen, candidate, graph) {
+            Sighting::Unseen(reason) => return reject(reason),
+            Sighting::Seen => {
+                tracing::debug!(
+                    target = %candidate.closure.target,
+                    source = %candidate.closure.source,
+                    "PCM: the loop's scans show each robot where it puts them"
+                );
+                pcm_loop.sighted = true;
+            }
+            Sighting::Unjudged => {}
         }
         let update = self.pcm.add(pcm_loop, graph).map_err(PluginError::InvalidInput)?;
         let mut verdict = Verdict {

@@ -158,6 +158,37 @@ fn a_peer_beyond_the_range_or_behind_a_wall_is_not_judged() {
 }
 
 #[test]
+fn a_peer_whose_body_the_rays_end_on_is_sighted() {
+    let check = PeerSeenConfig::default();
+    let graph = TwoRobots { offset_s: 0.0 };
+    for distance_m in [3.0, 8.0, 15.0] {
+        let source_in_target = planar_pose(distance_m, 1.0, 0.0, f64::to_radians(30.0));
+        let loop_ = closure(KeyframeId::new(0, 4), KeyframeId::new(1, 4), source_in_target);
+        let clouds = (
+            scan(Some(source_in_target)),
+            scan(Some(source_in_target.inverse())),
+        );
+        assert_eq!(
+            check.judge(&loop_, (&clouds.0, &clouds.1), &graph),
+            Sighting::Seen,
+            "{distance_m} m"
+        );
+        // Where neither scan shows the other robot, the loop is refuted.
+        let nobody = scan(None);
+        let empty = check.judge(&loop_, (&nobody, &nobody), &graph);
+        assert!(matches!(empty, Sighting::Unseen(_)), "{distance_m} m: {empty:?}");
+    }
+    // Beyond the range nothing is judged, even with the body in the scan.
+    let far_pose = Pose::translation(40.0, 0.0, 0.0);
+    let far = closure(KeyframeId::new(0, 4), KeyframeId::new(1, 4), far_pose);
+    let clouds = (scan(Some(far_pose)), scan(Some(far_pose.inverse())));
+    assert_eq!(
+        check.judge(&far, (&clouds.0, &clouds.1), &graph),
+        Sighting::Unjudged
+    );
+}
+
+#[test]
 fn out_of_range_parameters_name_their_key() {
     let cases = [
         (
@@ -194,6 +225,20 @@ fn out_of_range_parameters_name_their_key() {
                 ..PeerSeenConfig::default()
             },
             "min_rays",
+        ),
+        (
+            PeerSeenConfig {
+                sighting_half_extents_m: [0.4, 0.0, 0.1],
+                ..PeerSeenConfig::default()
+            },
+            "sighting_half_extents_m",
+        ),
+        (
+            PeerSeenConfig {
+                max_sighted_through_fraction: -0.1,
+                ..PeerSeenConfig::default()
+            },
+            "max_sighted_through_fraction",
         ),
     ];
     for (config, key) in cases {
