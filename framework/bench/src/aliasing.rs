@@ -64,6 +64,7 @@ impl Default for AliasingSettings {
                     sets: vec![
                         "loops.ambiguous_rival_ratio=0.5".to_owned(),
                         "verifier.pcm.consistency.together_within_s=1.0".to_owned(),
+                        "verifier.pcm.consistency.repeat_beyond_m=20.0".to_owned(),
                     ],
                 },
                 Variant {
@@ -76,6 +77,7 @@ impl Default for AliasingSettings {
                         "verifier.pcm.consistency.cycle_tolerance_deg=1e9".to_owned(),
                         "verifier.pcm.consistency.together_within_s=0".to_owned(),
                         "verifier.pcm.consistency.predicted_overlap_m=0".to_owned(),
+                        "verifier.pcm.consistency.repeat_beyond_m=0".to_owned(),
                         "verifier.pcm.free_space.enabled=false".to_owned(),
                         "verifier.pcm.odometry.enabled=false".to_owned(),
                         "verifier.pcm.peer_seen.enabled=false".to_owned(),

@@ -220,7 +220,7 @@ pub fn run_pcm(
 
 /// The parameters `skid pcm` and the benchmark use: PCM's defaults, deciding from the first loop on.
 /// A set is verified as Mangelson et al. verify it, so the runtime's earned-merge rules (spread,
-/// dominance over a rival set, predictions checked on descriptors) are off: a set file holds one pair's
+/// dominance over a rival set, predictions and repeats checked on descriptors) are off: a set file holds one pair's
 /// loops as a batch, with no later loops to settle a contest and no descriptors.
 pub fn set_params() -> PcmParams {
     PcmParams {
@@ -228,6 +228,7 @@ pub fn set_params() -> PcmParams {
         min_spread_m: 0.0,
         dominance_ratio: 0.0,
         predicted_overlap_m: 0.0,
+        repeat_beyond_m: 0.0,
         ..PcmParams::default()
     }
 }

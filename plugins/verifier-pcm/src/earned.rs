@@ -14,6 +14,11 @@
 //!   agree on exactly such a frame;
 //! - its predictions hold: the other keyframe pairs its frame puts in one place, beyond its loops, look
 //!   alike to the descriptor as well ([`crate::predicted`]);
+//! - it is corroborated where the places repeat: a set most of whose loops join keyframes that look like
+//!   other places of their own robot's map (a grid's junctions, [`crate::repeated`]) needs evidence the
+//!   look-alike copies cannot give: `min_sightings` loops whose scans show each robot's body where they
+//!   put it, every loop agreeing with the frame through a third robot, its predictions holding at
+//!   `aliased_alike_fraction`, or loops spanning `aliased_min_spread_m` on each robot;
 //! - it closes the cycle: where a third robot has merged with both robots, the frame through it
 //!   ([`GraphView::frames_through_others`]) agrees with most of the set's loops, at each loop's place,
 //!   within `cycle_tolerance_m` and `cycle_tolerance_deg`, plus `cycle_drift_fraction` of the route
@@ -34,7 +39,8 @@ use std::collections::BTreeSet;
 use crate::clique::{Graph, induced};
 use crate::consistency::PcmLoop;
 use crate::dense::consistent_core;
-use crate::predicted::{Along, OverlapRule, placements, predicted_overlaps};
+use crate::predicted::{Along, OverlapRule, Predicted, placements, predicted_overlaps};
+use crate::repeated::Repeats;
 use crate::ties::Ties;
 
 /// What decides a grant.
@@ -50,6 +56,12 @@ pub(crate) struct GrantRule {
     /// The peeling fraction for the rival's core (PCM's own `min_consistent_fraction`).
     pub core_fraction: f64,
     pub overlaps: OverlapRule,
+    /// A keyframe that looks like one of its robot's keyframes this far away repeats
+    /// ([`crate::repeated`]); 0 turns the corroboration rule off.
+    pub repeat_beyond_m: f64,
+    pub aliased_min_spread_m: f64,
+    pub min_sightings: usize,
+    pub aliased_alike_fraction: f64,
 }
 
 /// Why a hypothesis is not granted (yet), or `None` when it is.
@@ -63,6 +75,8 @@ pub(crate) enum Withheld {
     Together { loops: usize },
     /// Few of the keyframe pairs its frame puts in one place, beyond its loops, look alike.
     Unconfirmed { pairs: usize, alike: usize },
+    /// Most of its loops join places that repeat in a robot's own map, and nothing else vouches for it.
+    Uncorroborated { repeated: usize, loops: usize },
     /// The frame through a third robot disagrees with most of the loops.
     Contradicted { via: RobotId, off_m: f64, off_deg: f64 },
 }
@@ -81,6 +95,10 @@ impl std::fmt::Display for Withheld {
                 f,
                 "of {pairs} keyframe pairs its frame puts in one place beyond its loops, only {alike} look alike"
             ),
+            Self::Uncorroborated { repeated, loops } => write!(
+                f,
+                "{repeated} of its {loops} loops join places its robots' own maps hold elsewhere too, and no sighting, wider span, third robot or prediction vouches for it"
+            ),
             Self::Contested { rival } => write!(f, "a rival frame hypothesis is supported by {rival} loops"),
             Self::Contradicted { via, off_m, off_deg } => write!(
                 f,
@@ -90,16 +108,27 @@ impl std::fmt::Display for Withheld {
     }
 }
 
-/// Judges the hypothesis `members` (indices into `loops`, vertices of `consistency`); the loops in
-/// `refuted` (of hypotheses whose predictions failed) contest nothing.
+/// The group's state a judgement reads: its consistency graph, the loops of refuted hypotheses (which
+/// contest nothing), and what is known of its keyframes' repeats.
+pub(crate) struct Judged<'a> {
+    pub consistency: &'a Graph,
+    pub refuted: &'a BTreeSet<usize>,
+    pub repeats: &'a mut Repeats,
+}
+
+/// Judges the hypothesis `members` (indices into `loops`, vertices of the group's consistency graph).
 pub(crate) fn judge(
     rule: &GrantRule,
     loops: &[PcmLoop],
-    consistency: &Graph,
     members: &[usize],
-    refuted: &BTreeSet<usize>,
+    group: Judged<'_>,
     graph: &dyn GraphView,
 ) -> Option<Withheld> {
+    let Judged {
+        consistency,
+        refuted,
+        repeats,
+    } = group;
     let targets = members.iter().map(|&k| loops[k].target);
     let sources = members.iter().map(|&k| loops[k].source);
     let spread_m =
@@ -123,6 +152,48 @@ pub(crate) fn judge(
         });
     }
     contradiction(rule, loops, members, graph)
+        .or_else(|| uncorroborated(rule, loops, members, predicted, repeats, graph))
+}
+
+/// [`Withheld::Uncorroborated`] when most members are repeated ([`crate::repeated`]) and fewer than
+/// `min_sightings` of them were sighted, they span less than `aliased_min_spread_m` on a robot, the
+/// frame through a third robot does not vouch for every one, and the predictions do not hold at
+/// `aliased_alike_fraction`.
+fn uncorroborated(
+    rule: &GrantRule,
+    loops: &[PcmLoop],
+    members: &[usize],
+    predicted: Predicted,
+    repeats: &mut Repeats,
+    graph: &dyn GraphView,
+) -> Option<Withheld> {
+    if rule.repeat_beyond_m <= 0.0 {
+        return None;
+    }
+    let sightings = members.iter().filter(|&&k| loops[k].sighted).count();
+    if sightings >= rule.min_sightings.max(1) {
+        return None;
+    }
+    let confirmed = predicted.pairs >= rule.overlaps.min_pairs.max(1)
+        && predicted.alike as f64 >= rule.aliased_alike_fraction * predicted.pairs as f64;
+    if confirmed {
+        return None;
+    }
+    let spread =
+        |keyframes: Vec<KeyframeId>| spread_m(keyframes.into_iter(), graph, rule.aliased_min_spread_m);
+    let targets = members.iter().map(|&k| loops[k].target).collect();
+    let sources = members.iter().map(|&k| loops[k].source).collect();
+    if rule.aliased_min_spread_m > 0.0 && spread(targets).min(spread(sources)) >= rule.aliased_min_spread_m {
+        return None;
+    }
+    let repeated = repeats.count(rule.repeat_beyond_m, loops, members, graph);
+    if 2 * repeated <= members.len() || agrees_with_cycle(rule, loops, members, graph) {
+        return None;
+    }
+    Some(Withheld::Uncorroborated {
+        repeated,
+        loops: members.len(),
+    })
 }
 
 /// Where each member puts robot b against where each frame through a third robot puts it: per third

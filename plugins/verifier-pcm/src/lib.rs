@@ -12,8 +12,10 @@
 //!   earlier acceptances are retracted when the accepted set changes. Between two robots the set is a
 //!   frame hypothesis, granted only when its loops are spread over space and it clearly dominates the
 //!   strongest rival hypothesis ([`earned`]), and while the other keyframe pairs its frame puts in one
-//!   place look alike too ([`predicted`]); a granted set that stops dominating or whose predictions fail
-//!   is retracted.
+//!   place look alike too ([`predicted`]), and, where most of its loops join places that repeat in a
+//!   robot's own map, once a loop's scans show the other robot where it puts it or its loops span more
+//!   than one look-alike spot ([`repeated`], [`peer_seen`]); a granted set that stops dominating or
+//!   whose predictions fail is retracted.
 //! - `gnc`: the cloud checks only (truncated MSE, free space), accepting the rest; pair it with `[backend.pgo] robust = "gnc"` so
 //!   graduated non-convexity with a truncated-least-squares loss rejects outliers in the back-end.
 //!
@@ -30,6 +32,7 @@ pub mod odometry_bound;
 pub mod pcm;
 pub mod peer_seen;
 mod predicted;
+mod repeated;
 #[cfg(test)]
 mod test_scene;
 mod ties;

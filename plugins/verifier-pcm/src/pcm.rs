@@ -26,9 +26,10 @@ use skid_core::{LoopId, ParamError, RobotId};
 use crate::clique::{Graph, extend_greedily, heuristic_clique, induced, max_clique, max_clique_within};
 use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::dense::consistent_core;
-use crate::earned::{GrantRule, Withheld, agrees_with_cycle, judge};
+use crate::earned::{GrantRule, Judged, Withheld, agrees_with_cycle, judge};
 use crate::lie::chi2_quantile;
 use crate::predicted::OverlapRule;
+use crate::repeated::Repeats;
 
 /// Parameters of PCM.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -90,6 +91,20 @@ pub struct PcmParams {
     pub predicted_beyond_m: f64,
     pub min_predicted_pairs: usize,
     pub min_alike_fraction: f64,
+    /// A keyframe whose descriptor looks like one of its own robot's keyframes at least this many metres
+    /// away (by odometry) shows a place that repeats ([`crate::repeated`]). An inter-robot set most of
+    /// whose loops join such keyframes is granted only when at least `min_sightings` of its loops were
+    /// sighted (each robot's body seen where the loop puts it, `[verifier.pcm.peer_seen]`), when its
+    /// loops span `aliased_min_spread_m` on each robot, when every loop agrees with the frame through a
+    /// third robot, or when its predictions (above) look alike at least `aliased_alike_fraction` of the
+    /// time. 0 turns it off, the default: on the simulator's bland planetary terrain most keyframes look
+    /// like another of their robot's keyframes at SOLiD's candidate distance, and with the rule on
+    /// sixteen robots on the default mission joined robot 0's frame 8 of 15 instead of 15 of 15. The
+    /// aliasing benchmark turns it on at 20 m.
+    pub repeat_beyond_m: f64,
+    pub aliased_min_spread_m: f64,
+    pub min_sightings: usize,
+    pub aliased_alike_fraction: f64,
 }
 
 impl Default for PcmParams {
@@ -112,6 +127,10 @@ impl Default for PcmParams {
             predicted_beyond_m: 10.0,
             min_predicted_pairs: 10,
             min_alike_fraction: 0.3,
+            repeat_beyond_m: 0.0,
+            aliased_min_spread_m: 15.0,
+            min_sightings: 1,
+            aliased_alike_fraction: 0.6,
         }
     }
 }
@@ -141,6 +160,8 @@ impl PcmParams {
             (self.together_within_m, "together_within_m"),
             (self.predicted_overlap_m, "predicted_overlap_m"),
             (self.predicted_beyond_m, "predicted_beyond_m"),
+            (self.repeat_beyond_m, "repeat_beyond_m"),
+            (self.aliased_min_spread_m, "aliased_min_spread_m"),
         ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(ParamError::at(
@@ -149,11 +170,13 @@ impl PcmParams {
                 ));
             }
         }
-        if !(0.0..=1.0).contains(&self.min_alike_fraction) {
-            return Err(ParamError::at(
-                "min_alike_fraction",
-                format!("must lie in [0, 1], got {}", self.min_alike_fraction),
-            ));
+        for (value, key) in [
+            (self.min_alike_fraction, "min_alike_fraction"),
+            (self.aliased_alike_fraction, "aliased_alike_fraction"),
+        ] {
+            if !(0.0..=1.0).contains(&value) {
+                return Err(ParamError::at(key, format!("must lie in [0, 1], got {value}")));
+            }
         }
         Ok(())
     }
@@ -174,6 +197,10 @@ impl PcmParams {
                 min_pairs: self.min_predicted_pairs,
                 min_alike_fraction: self.min_alike_fraction,
             },
+            repeat_beyond_m: self.repeat_beyond_m,
+            aliased_min_spread_m: self.aliased_min_spread_m,
+            min_sightings: self.min_sightings,
+            aliased_alike_fraction: self.aliased_alike_fraction,
         }
     }
 }
@@ -211,6 +238,8 @@ struct Group {
     /// Loops of frame hypotheses whose predictions failed ([`crate::predicted`]): left out of the
     /// leading set and of its rivals from then on.
     refuted: BTreeSet<usize>,
+    /// Which of its loops' keyframes show places that repeat in their robot's map.
+    repeats: Repeats,
 }
 
 impl Group {
@@ -251,14 +280,12 @@ impl Group {
     fn settle(&mut self, params: &PcmParams, graph: &dyn GraphView) {
         let rule = params.grant_rule();
         loop {
-            self.withheld = judge(
-                &rule,
-                &self.loops,
-                &self.graph,
-                &self.clique,
-                &self.refuted,
-                graph,
-            );
+            let group = Judged {
+                consistency: &self.graph,
+                refuted: &self.refuted,
+                repeats: &mut self.repeats,
+            };
+            self.withheld = judge(&rule, &self.loops, &self.clique, group, graph);
             let Some(reason @ Withheld::Unconfirmed { .. }) = &self.withheld else {
                 return;
             };

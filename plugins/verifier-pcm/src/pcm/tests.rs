@@ -552,7 +552,7 @@ impl GraphView for Streets {
     fn looks_alike(&self, a: KeyframeId, b: KeyframeId) -> Option<bool> {
         let truly = (self.truth(a).translation.vector - self.truth(b).translation.vector).norm() <= 3.0;
         let (zero, one) = if a.robot.0 == 0 { (a, b) } else { (b, a) };
-        let aliased = one.index <= 5 && zero.index == 20 + one.index;
+        let aliased = zero.robot != one.robot && one.index <= 5 && zero.index == 20 + one.index;
         Some(truly || aliased)
     }
 }
