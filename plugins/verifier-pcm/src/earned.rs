@@ -179,11 +179,12 @@ fn uncorroborated(
     if confirmed {
         return None;
     }
-    let spread =
-        |keyframes: Vec<KeyframeId>| spread_m(keyframes.into_iter(), graph, rule.aliased_min_spread_m);
-    let targets = members.iter().map(|&k| loops[k].target).collect();
-    let sources = members.iter().map(|&k| loops[k].source).collect();
-    if rule.aliased_min_spread_m > 0.0 && spread(targets).min(spread(sources)) >= rule.aliased_min_spread_m {
+    let enough_m = rule.aliased_min_spread_m;
+    let targets = members.iter().map(|&k| loops[k].target);
+    let sources = members.iter().map(|&k| loops[k].source);
+    if enough_m > 0.0
+        && spread_m(targets, graph, enough_m).min(spread_m(sources, graph, enough_m)) >= enough_m
+    {
         return None;
     }
     let repeated = repeats.count(rule.repeat_beyond_m, loops, members, graph);

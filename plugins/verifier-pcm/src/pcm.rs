@@ -340,6 +340,12 @@ impl Pcm {
         }
     }
 
+    /// Whether a grant rule reads [`PcmLoop::sighted`] (the rule for places that repeat is on): the
+    /// verifier marks sightings only then.
+    pub fn reads_sightings(&self) -> bool {
+        self.params.repeat_beyond_m > 0.0
+    }
+
     /// The squared-Mahalanobis threshold in use.
     pub fn threshold(&self) -> f64 {
         self.threshold

@@ -182,19 +182,21 @@ impl PeerSeenConfig {
         clouds: (&[Point], &[Point]),
         graph: &dyn GraphView,
     ) -> Option<String> {
-        match self.judge(closure, clouds, graph) {
+        match self.judge(closure, clouds, graph, false) {
             Sighting::Unseen(reason) => Some(reason),
             Sighting::Seen | Sighting::Unjudged => None,
         }
     }
 
     /// What the two scans say about the loop: the other robot absent from either where the loop puts
-    /// it refutes the loop; else its body on either confirms it.
+    /// it refutes the loop; else, when `confirm` asks for it, its body on either confirms it (a second
+    /// pass over the rays, which a caller that reads no sightings does without).
     pub fn judge(
         &self,
         closure: &LoopClosure,
         (target, source): (&[Point], &[Point]),
         graph: &dyn GraphView,
+        confirm: bool,
     ) -> Sighting {
         let (target_id, source_id) = (closure.target, closure.source);
         if !self.enabled || target_id.robot == source_id.robot {
@@ -224,7 +226,7 @@ impl PeerSeenConfig {
                     100.0 * self.max_through_fraction
                 ));
             }
-            seen |= self.sighted(cloud, &seen_sensor);
+            seen = seen || (confirm && self.sighted(cloud, &seen_sensor));
         }
         match seen {
             true => Sighting::Seen,

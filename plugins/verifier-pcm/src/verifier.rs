@@ -80,12 +80,18 @@ fn free_space_rejection(config: &FreeSpaceConfig, candidate: &LoopCandidate<'_>)
 }
 
 /// Runs the peer-visibility check on a candidate: whether it puts one robot in the other's view at one
-/// moment, and whether the scans show it there or absent.
-fn peer_sighting(config: &PeerSeenConfig, candidate: &LoopCandidate<'_>, graph: &dyn GraphView) -> Sighting {
+/// moment, and whether the scans show it absent or (with `confirm`) there.
+fn peer_sighting(
+    config: &PeerSeenConfig,
+    candidate: &LoopCandidate<'_>,
+    graph: &dyn GraphView,
+    confirm: bool,
+) -> Sighting {
     config.judge(
         &candidate.closure,
         (candidate.target_cloud.points(), candidate.source_cloud.points()),
         graph,
+        confirm,
     )
 }
 
@@ -95,10 +101,11 @@ fn peer_seen_rejection(
     candidate: &LoopCandidate<'_>,
     graph: &dyn GraphView,
 ) -> Option<String> {
-    match peer_sighting(config, candidate, graph) {
-        Sighting::Unseen(reason) => Some(reason),
-        Sighting::Seen | Sighting::Unjudged => None,
-    }
+    config.refusal(
+        &candidate.closure,
+        (candidate.target_cloud.points(), candidate.source_cloud.points()),
+        graph,
+    )
 }
 
 /// Checks that both keyframes of a loop are in the graph.
@@ -168,7 +175,7 @@ impl Verifier for PcmVerifier {
         {
             return reject(reason);
         }
-        match peer_sighting(&self.peer_seen, candidate, graph) {
+        match peer_sighting(&self.peer_seen, candidate, graph, self.pcm.reads_sightings()) {
             Sighting::Unseen(reason) => return reject(reason),
             Sighting::Seen => {
                 tracing::debug!(

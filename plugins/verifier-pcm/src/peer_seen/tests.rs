@@ -169,13 +169,13 @@ fn a_peer_whose_body_the_rays_end_on_is_sighted() {
             scan(Some(source_in_target.inverse())),
         );
         assert_eq!(
-            check.judge(&loop_, (&clouds.0, &clouds.1), &graph),
+            check.judge(&loop_, (&clouds.0, &clouds.1), &graph, true),
             Sighting::Seen,
             "{distance_m} m"
         );
         // Where neither scan shows the other robot, the loop is refuted.
         let nobody = scan(None);
-        let empty = check.judge(&loop_, (&nobody, &nobody), &graph);
+        let empty = check.judge(&loop_, (&nobody, &nobody), &graph, true);
         assert!(matches!(empty, Sighting::Unseen(_)), "{distance_m} m: {empty:?}");
     }
     // Beyond the range nothing is judged, even with the body in the scan.
@@ -183,7 +183,7 @@ fn a_peer_whose_body_the_rays_end_on_is_sighted() {
     let far = closure(KeyframeId::new(0, 4), KeyframeId::new(1, 4), far_pose);
     let clouds = (scan(Some(far_pose)), scan(Some(far_pose.inverse())));
     assert_eq!(
-        check.judge(&far, (&clouds.0, &clouds.1), &graph),
+        check.judge(&far, (&clouds.0, &clouds.1), &graph, true),
         Sighting::Unjudged
     );
 }
