@@ -78,6 +78,7 @@ impl Default for AliasingSettings {
                         "verifier.pcm.consistency.together_within_s=0".to_owned(),
                         "verifier.pcm.consistency.predicted_overlap_m=0".to_owned(),
                         "verifier.pcm.consistency.repeat_beyond_m=0".to_owned(),
+                        "verifier.pcm.consistency.min_unseen_loops=0".to_owned(),
                         "verifier.pcm.free_space.enabled=false".to_owned(),
                         "verifier.pcm.odometry.enabled=false".to_owned(),
                         "verifier.pcm.peer_seen.enabled=false".to_owned(),

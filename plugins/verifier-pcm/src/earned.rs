@@ -2,6 +2,15 @@
 //! where one robot's frame sits in the other's; in a self-similar place several hypotheses are each
 //! supported by loops that agree with one another, and pairwise consistency cannot tell a wrong one from
 //! the right one. The set is granted (its loops accepted) only when
+//! - its frame is not seen empty: fewer than `min_unseen_loops` of the loops the peer-visibility check
+//!   refused ([`crate::peer_seen`]: a scan of that moment shows the place empty where the loop puts the
+//!   other robot) are consistent with most of its loops. Such a loop implies the set's frame, so the
+//!   frame puts the robot where the scans show nobody. Two robots starting on two identical junctions
+//!   of a grid see a turned copy of each other's start: the loops between their first keyframes put them
+//!   side by side and are refused, while the loops a few seconds on put them 10 m apart, where a
+//!   keyframe's thinned cloud holds too few rays towards the other's body to judge them; all imply one
+//!   frame, which the first loops' rays refute. A set refuted so is refuted for good, as a set whose
+//!   predictions fail is, and the loops left are judged in its place;
 //! - its loops are spread over space: on each robot, the keyframes they join span at least
 //!   `min_spread_m` (not all on one spot), and
 //! - it clearly dominates: it holds at least `dominance_ratio` times as many loops as the strongest
@@ -62,6 +71,8 @@ pub(crate) struct GrantRule {
     pub aliased_min_spread_m: f64,
     pub min_sightings: usize,
     pub aliased_alike_fraction: f64,
+    /// Loops refused as unseen that refute a hypothesis they agree with; 0 turns the rule off.
+    pub min_unseen_loops: usize,
 }
 
 /// Why a hypothesis is not granted (yet), or `None` when it is.
@@ -77,6 +88,8 @@ pub(crate) enum Withheld {
     Unconfirmed { pairs: usize, alike: usize },
     /// Most of its loops join places that repeat in a robot's own map, and nothing else vouches for it.
     Uncorroborated { repeated: usize, loops: usize },
+    /// Loops the scans refuted (the other robot absent where they put it) agree with most of its loops.
+    Unseen { loops: usize },
     /// The frame through a third robot disagrees with most of the loops.
     Contradicted { via: RobotId, off_m: f64, off_deg: f64 },
 }
@@ -99,6 +112,10 @@ impl std::fmt::Display for Withheld {
                 f,
                 "{repeated} of its {loops} loops join places its robots' own maps hold elsewhere too, and no sighting, wider span, third robot or prediction vouches for it"
             ),
+            Self::Unseen { loops } => write!(
+                f,
+                "{loops} loops whose scans show nobody where they put the other robot agree with most of its loops"
+            ),
             Self::Contested { rival } => write!(f, "a rival frame hypothesis is supported by {rival} loops"),
             Self::Contradicted { via, off_m, off_deg } => write!(
                 f,
@@ -108,12 +125,20 @@ impl std::fmt::Display for Withheld {
     }
 }
 
+/// A loop the peer-visibility check refused, and the indices of its group's loops it is consistent
+/// with (pairwise, as PCM tests two loops).
+pub(crate) struct Unseen {
+    pub pcm_loop: PcmLoop,
+    pub consistent_with: BTreeSet<usize>,
+}
+
 /// The group's state a judgement reads: its consistency graph, the loops of refuted hypotheses (which
-/// contest nothing), and what is known of its keyframes' repeats.
+/// contest nothing), what is known of its keyframes' repeats, and the loops the scans refuted.
 pub(crate) struct Judged<'a> {
     pub consistency: &'a Graph,
     pub refuted: &'a BTreeSet<usize>,
     pub repeats: &'a mut Repeats,
+    pub unseen: &'a [Unseen],
 }
 
 /// Judges the hypothesis `members` (indices into `loops`, vertices of the group's consistency graph).
@@ -128,7 +153,12 @@ pub(crate) fn judge(
         consistency,
         refuted,
         repeats,
+        unseen,
     } = group;
+    let unseen = agreeing_unseen(unseen, members);
+    if rule.min_unseen_loops > 0 && unseen >= rule.min_unseen_loops {
+        return Some(Withheld::Unseen { loops: unseen });
+    }
     let targets = members.iter().map(|&k| loops[k].target);
     let sources = members.iter().map(|&k| loops[k].source);
     let spread_m =
@@ -153,6 +183,24 @@ pub(crate) fn judge(
     }
     contradiction(rule, loops, members, graph)
         .or_else(|| uncorroborated(rule, loops, members, predicted, repeats, graph))
+}
+
+/// How many loops the scans refuted are each consistent with more than half of `members`: each implies
+/// (nearly) the members' frame, and so does the robot's absence where it puts the robot.
+fn agreeing_unseen(unseen: &[Unseen], members: &[usize]) -> usize {
+    if members.is_empty() {
+        return 0;
+    }
+    unseen
+        .iter()
+        .filter(|unseen| {
+            let agreeing = members
+                .iter()
+                .filter(|member| unseen.consistent_with.contains(member))
+                .count();
+            2 * agreeing > members.len()
+        })
+        .count()
 }
 
 /// [`Withheld::Uncorroborated`] when most members are repeated ([`crate::repeated`]) and fewer than

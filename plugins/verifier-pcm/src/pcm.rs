@@ -26,7 +26,7 @@ use skid_core::{LoopId, ParamError, RobotId};
 use crate::clique::{Graph, extend_greedily, heuristic_clique, induced, max_clique, max_clique_within};
 use crate::consistency::{PcmLoop, squared_mahalanobis};
 use crate::dense::consistent_core;
-use crate::earned::{GrantRule, Judged, Withheld, agrees_with_cycle, judge};
+use crate::earned::{GrantRule, Judged, Unseen, Withheld, agrees_with_cycle, judge};
 use crate::lie::chi2_quantile;
 use crate::predicted::OverlapRule;
 use crate::repeated::Repeats;
@@ -105,6 +105,11 @@ pub struct PcmParams {
     pub aliased_min_spread_m: f64,
     pub min_sightings: usize,
     pub aliased_alike_fraction: f64,
+    /// An inter-robot frame hypothesis is refuted for good when at least this many loops that the
+    /// peer-visibility check refused (`[verifier.pcm.peer_seen]`: a scan shows the place empty where the
+    /// loop puts the other robot) are each consistent with most of its loops: they imply its frame, so
+    /// its frame puts the robot where the scans show nobody ([`crate::earned`]). 0 turns it off.
+    pub min_unseen_loops: usize,
 }
 
 impl Default for PcmParams {
@@ -131,6 +136,7 @@ impl Default for PcmParams {
             aliased_min_spread_m: 15.0,
             min_sightings: 1,
             aliased_alike_fraction: 0.6,
+            min_unseen_loops: 2,
         }
     }
 }
@@ -201,6 +207,7 @@ impl PcmParams {
             aliased_min_spread_m: self.aliased_min_spread_m,
             min_sightings: self.min_sightings,
             aliased_alike_fraction: self.aliased_alike_fraction,
+            min_unseen_loops: self.min_unseen_loops,
         }
     }
 }
@@ -240,6 +247,8 @@ struct Group {
     refuted: BTreeSet<usize>,
     /// Which of its loops' keyframes show places that repeat in their robot's map.
     repeats: Repeats,
+    /// Loops the peer-visibility check refused, each with the loops of `loops` it is consistent with.
+    unseen: Vec<Unseen>,
 }
 
 impl Group {
@@ -274,7 +283,8 @@ impl Group {
             && agrees_with_cycle(&params.grant_rule(), &self.loops, &members, graph)
     }
 
-    /// Judges an inter-robot group's leading set; a set whose predictions fail is refuted for good and
+    /// Judges an inter-robot group's leading set; a set whose predictions fail, or whose frame puts a
+    /// robot where scans show nobody, is refuted for good and
     /// the leading set of the loops left is judged in its place, so a wrong frame that outnumbers the
     /// right one does not hold it back.
     fn settle(&mut self, params: &PcmParams, graph: &dyn GraphView) {
@@ -284,9 +294,11 @@ impl Group {
                 consistency: &self.graph,
                 refuted: &self.refuted,
                 repeats: &mut self.repeats,
+                unseen: &self.unseen,
             };
             self.withheld = judge(&rule, &self.loops, &self.clique, group, graph);
-            let Some(reason @ Withheld::Unconfirmed { .. }) = &self.withheld else {
+            let Some(reason @ (Withheld::Unconfirmed { .. } | Withheld::Unseen { .. })) = &self.withheld
+            else {
                 return;
             };
             if self.clique.is_empty() {
@@ -396,6 +408,43 @@ impl Pcm {
         (accepted, retracted)
     }
 
+    /// Adds an inter-robot loop the peer-visibility check refused: it is never accepted, but it refutes
+    /// the frame hypotheses it agrees with (`min_unseen_loops`). Returns the loops withdrawn when the
+    /// group's granted set is refuted by it. A loop id seen before is an error; with the rule off, or
+    /// for an intra-robot loop, nothing is kept.
+    pub fn add_unseen(&mut self, pcm_loop: PcmLoop, graph: &dyn GraphView) -> Result<Vec<LoopId>, String> {
+        if self.params.min_unseen_loops == 0 || pcm_loop.target.robot == pcm_loop.source.robot {
+            return Ok(Vec::new());
+        }
+        if self.known.contains(&pcm_loop.id) {
+            return Err(format!("{} was submitted before", pcm_loop.id));
+        }
+        let group = self.groups.entry(pcm_loop.group()).or_default();
+        if group
+            .unseen
+            .iter()
+            .any(|unseen| unseen.pcm_loop.id == pcm_loop.id)
+        {
+            return Ok(Vec::new());
+        }
+        let consistent_with = (0..group.loops.len())
+            .filter(|&u| {
+                squared_mahalanobis(&group.loops[u], &pcm_loop, graph).is_some_and(|d2| d2 <= self.threshold)
+            })
+            .collect();
+        group.unseen.push(Unseen {
+            pcm_loop,
+            consistent_with,
+        });
+        if !group.decided {
+            return Ok(Vec::new());
+        }
+        let before: BTreeSet<usize> = group.granted().iter().copied().collect();
+        group.settle(&self.params, graph);
+        let after: BTreeSet<usize> = group.granted().iter().copied().collect();
+        Ok(before.difference(&after).map(|&k| group.loops[k].id).collect())
+    }
+
     /// Adds a loop and updates its group's clique. A loop id seen before is an error.
     pub fn add(&mut self, pcm_loop: PcmLoop, graph: &dyn GraphView) -> Result<PcmUpdate, String> {
         if !self.known.insert(pcm_loop.id) {
@@ -422,6 +471,12 @@ impl Pcm {
         for u in 0..v {
             if squared_mahalanobis(&group.loops[u], &pcm_loop, graph).is_some_and(|d2| d2 <= self.threshold) {
                 group.graph.add_edge(u, v);
+            }
+        }
+        for unseen in &mut group.unseen {
+            if squared_mahalanobis(&unseen.pcm_loop, &pcm_loop, graph).is_some_and(|d2| d2 <= self.threshold)
+            {
+                unseen.consistent_with.insert(v);
             }
         }
         group.loops.push(pcm_loop);
@@ -498,3 +553,5 @@ impl Pcm {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod unseen_tests;

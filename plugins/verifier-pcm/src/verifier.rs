@@ -176,7 +176,26 @@ impl Verifier for PcmVerifier {
             return reject(reason);
         }
         match peer_sighting(&self.peer_seen, candidate, graph, self.pcm.reads_sightings()) {
-            Sighting::Unseen(reason) => return reject(reason),
+            Sighting::Unseen(reason) => {
+                // The refused loop still speaks against the frame hypotheses it agrees with.
+                let retracted = self
+                    .pcm
+                    .add_unseen(pcm_loop, graph)
+                    .map_err(PluginError::InvalidInput)?;
+                if !retracted.is_empty() {
+                    tracing::debug!(
+                        target = %candidate.closure.target,
+                        source = %candidate.closure.source,
+                        withdrawn = retracted.len(),
+                        "PCM: a granted set is withdrawn: a loop it agrees with puts a robot where the scans show nobody"
+                    );
+                }
+                return Ok(Verdict {
+                    rejected: vec![(id, reason)],
+                    retracted,
+                    ..Verdict::default()
+                });
+            }
             Sighting::Seen => {
                 tracing::debug!(
                     target = %candidate.closure.target,

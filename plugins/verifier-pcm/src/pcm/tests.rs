@@ -7,7 +7,7 @@ use skid_core::slots::{LoopClosure, RelativePose};
 use skid_core::{Information, KeyframeId, Pose, RobotId};
 
 /// Two robots on gentle curves with exact odometry of small covariance.
-struct Curves;
+pub(super) struct Curves;
 
 fn truth(id: KeyframeId) -> Pose {
     let k = f64::from(id.index);
@@ -35,12 +35,18 @@ impl GraphView for Curves {
     }
 }
 
-fn pcm_loop(id: u64, target: KeyframeId, source: KeyframeId, error: Pose) -> PcmLoop {
+pub(super) fn pcm_loop(id: u64, target: KeyframeId, source: KeyframeId, error: Pose) -> PcmLoop {
     aligned_loop(id, target, source, &Pose::identity(), error)
 }
 
 /// A loop measured as if robot 1's world were displaced by `world_error`, then perturbed by `error`.
-fn aligned_loop(id: u64, target: KeyframeId, source: KeyframeId, world_error: &Pose, error: Pose) -> PcmLoop {
+pub(super) fn aligned_loop(
+    id: u64,
+    target: KeyframeId,
+    source: KeyframeId,
+    world_error: &Pose,
+    error: Pose,
+) -> PcmLoop {
     let closure = LoopClosure {
         id: LoopId(id),
         target,
@@ -100,7 +106,7 @@ fn a_consistent_wrong_pair_is_accepted_then_retracted() {
 }
 
 /// Adds a loop and folds its update into `accepted`; returns the update.
-fn add_tracking(pcm: &mut Pcm, accepted: &mut BTreeSet<LoopId>, pcm_loop: PcmLoop) -> PcmUpdate {
+pub(super) fn add_tracking(pcm: &mut Pcm, accepted: &mut BTreeSet<LoopId>, pcm_loop: PcmLoop) -> PcmUpdate {
     let update = pcm.add(pcm_loop, &Curves).unwrap();
     for id in &update.retracted {
         assert!(accepted.remove(id), "{id} retracted without being accepted");
