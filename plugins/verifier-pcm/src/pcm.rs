@@ -553,5 +553,3 @@ impl Pcm {
 
 #[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod unseen_tests;

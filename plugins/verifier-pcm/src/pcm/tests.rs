@@ -7,7 +7,7 @@ use skid_core::slots::{LoopClosure, RelativePose};
 use skid_core::{Information, KeyframeId, Pose, RobotId};
 
 /// Two robots on gentle curves with exact odometry of small covariance.
-pub(super) struct Curves;
+struct Curves;
 
 fn truth(id: KeyframeId) -> Pose {
     let k = f64::from(id.index);
@@ -35,18 +35,12 @@ impl GraphView for Curves {
     }
 }
 
-pub(super) fn pcm_loop(id: u64, target: KeyframeId, source: KeyframeId, error: Pose) -> PcmLoop {
+fn pcm_loop(id: u64, target: KeyframeId, source: KeyframeId, error: Pose) -> PcmLoop {
     aligned_loop(id, target, source, &Pose::identity(), error)
 }
 
 /// A loop measured as if robot 1's world were displaced by `world_error`, then perturbed by `error`.
-pub(super) fn aligned_loop(
-    id: u64,
-    target: KeyframeId,
-    source: KeyframeId,
-    world_error: &Pose,
-    error: Pose,
-) -> PcmLoop {
+fn aligned_loop(id: u64, target: KeyframeId, source: KeyframeId, world_error: &Pose, error: Pose) -> PcmLoop {
     let closure = LoopClosure {
         id: LoopId(id),
         target,
@@ -106,7 +100,7 @@ fn a_consistent_wrong_pair_is_accepted_then_retracted() {
 }
 
 /// Adds a loop and folds its update into `accepted`; returns the update.
-pub(super) fn add_tracking(pcm: &mut Pcm, accepted: &mut BTreeSet<LoopId>, pcm_loop: PcmLoop) -> PcmUpdate {
+fn add_tracking(pcm: &mut Pcm, accepted: &mut BTreeSet<LoopId>, pcm_loop: PcmLoop) -> PcmUpdate {
     let update = pcm.add(pcm_loop, &Curves).unwrap();
     for id in &update.retracted {
         assert!(accepted.remove(id), "{id} retracted without being accepted");
@@ -710,3 +704,5 @@ fn true_loops_on_both_sides_of_a_lost_stretch_of_a_peers_chain_are_consistent() 
     }
     assert_eq!(pcm.accepted(), vec![LoopId(1), LoopId(2)]);
 }
+
+mod unseen;

@@ -1,11 +1,8 @@
 //! Tests of the rule that loops the peer-visibility check refused speak against the frame hypotheses
-//! they agree with: two robots on gentle curves ([`super::tests::Curves`]), a wrong frame that its own
-//! loops cannot tell from the right one.
+//! they agree with: two robots on gentle curves ([`super::Curves`]), a wrong frame that its own loops
+//! cannot tell from the right one.
 
-use super::tests::{Curves, add_tracking, aligned_loop, pcm_loop};
 use super::*;
-use nalgebra::Vector3;
-use skid_core::{KeyframeId, Pose};
 
 /// Robot 1's world 6 m too far along: the wrong frame of these tests.
 fn wrong_offset() -> Pose {
