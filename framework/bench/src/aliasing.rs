@@ -228,7 +228,10 @@ pub fn run_one(
                 joined_after_s: beta.alignment.as_ref().and_then(|a| a.joined_after_s),
                 placed_since_s: beta.alignment.as_ref().and_then(|a| a.placed_since_s),
                 withdrawn_false_placements: withdrawn_false.len(),
-                withdrawn_false_placement_s: withdrawn_false.iter().map(|(from, until)| until - from).sum(),
+                // Folded from +0: an empty `f64` sum is -0, which the table would print as "-0".
+                withdrawn_false_placement_s: withdrawn_false
+                    .iter()
+                    .fold(0.0, |sum, (from, until)| sum + (until - from)),
                 t_beta_ape_m: ape.map(|e| e.translation_m),
                 t_beta_ape_deg: ape.map(|e| e.rotation_deg),
                 straight_route,
@@ -279,7 +282,9 @@ pub fn aliasing_markdown(settings: &AliasingSettings, rows: &[MergeRow]) -> Stri
                 .fold(0.0, f64::max);
             let mut times: Vec<f64> = true_merges.iter().filter_map(|r| r.placed_since_s).collect();
             let withdrawn: usize = mine.iter().map(|r| r.withdrawn_false_placements).sum();
-            let withdrawn_s: f64 = mine.iter().map(|r| r.withdrawn_false_placement_s).sum();
+            let withdrawn_s = mine
+                .iter()
+                .fold(0.0, |sum, r| sum + r.withdrawn_false_placement_s);
             let median_time = if times.is_empty() {
                 "–".to_owned()
             } else {
