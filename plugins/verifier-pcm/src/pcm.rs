@@ -327,6 +327,11 @@ fn leading_set(graph: &Graph, params: &PcmParams) -> (Vec<usize>, bool) {
     }
 }
 
+/// PCM's pairwise test: the cycle of loops `a` and `b` is within the squared-Mahalanobis `threshold`.
+fn consistent(a: &PcmLoop, b: &PcmLoop, graph: &dyn GraphView, threshold: f64) -> bool {
+    squared_mahalanobis(a, b, graph).is_some_and(|d2| d2 <= threshold)
+}
+
 /// The incremental PCM state.
 pub struct Pcm {
     params: PcmParams,
@@ -410,8 +415,8 @@ impl Pcm {
 
     /// Adds an inter-robot loop the peer-visibility check refused: it is never accepted, but it refutes
     /// the frame hypotheses it agrees with (`min_unseen_loops`). Returns the loops withdrawn when the
-    /// group's granted set is refuted by it. A loop id seen before is an error; with the rule off, or
-    /// for an intra-robot loop, nothing is kept.
+    /// group's granted set is refuted by it. The id of a loop [`Pcm::add`] took is an error; with the
+    /// rule off, for an intra-robot loop, or for a loop kept already, nothing is kept.
     pub fn add_unseen(&mut self, pcm_loop: PcmLoop, graph: &dyn GraphView) -> Result<Vec<LoopId>, String> {
         if self.params.min_unseen_loops == 0 || pcm_loop.target.robot == pcm_loop.source.robot {
             return Ok(Vec::new());
@@ -428,9 +433,7 @@ impl Pcm {
             return Ok(Vec::new());
         }
         let consistent_with = (0..group.loops.len())
-            .filter(|&u| {
-                squared_mahalanobis(&group.loops[u], &pcm_loop, graph).is_some_and(|d2| d2 <= self.threshold)
-            })
+            .filter(|&u| consistent(&group.loops[u], &pcm_loop, graph, self.threshold))
             .collect();
         group.unseen.push(Unseen {
             pcm_loop,
@@ -469,13 +472,12 @@ impl Pcm {
         }
         let v = group.graph.add_vertex();
         for u in 0..v {
-            if squared_mahalanobis(&group.loops[u], &pcm_loop, graph).is_some_and(|d2| d2 <= self.threshold) {
+            if consistent(&group.loops[u], &pcm_loop, graph, self.threshold) {
                 group.graph.add_edge(u, v);
             }
         }
         for unseen in &mut group.unseen {
-            if squared_mahalanobis(&unseen.pcm_loop, &pcm_loop, graph).is_some_and(|d2| d2 <= self.threshold)
-            {
+            if consistent(&unseen.pcm_loop, &pcm_loop, graph, self.threshold) {
                 unseen.consistent_with.insert(v);
             }
         }
